@@ -1,0 +1,131 @@
+"""Command line: argument parsing and error reporting only (SPEC section 4).
+
+Every expected failure prints one line ``melange-ti: error: ...`` and exits with status 2
+(bad input) or 3 (a run that stopped on a numerical guard); never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from . import __version__
+
+EXIT_INPUT = 2
+EXIT_RUNTIME = 3
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, status 2
+        self.exit(EXIT_INPUT, f"melange-ti: error: {message}\n")
+
+
+def _common_run_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", default=[], help="override a scene key, e.g. time.dt=0.005")
+    p.add_argument("--arch", choices=("cpu", "gpu"), default="cpu", help="Taichi backend (gpu: untested where none is present)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="melange-ti", description="Simulate capsizing icebergs and ice-melange expansion (Guttenberg et al. 2011).")
+    p.add_argument("--version", action="version", version=f"melange-ti {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    r = sub.add_parser("run", help="run one scene into an HDF5 file")
+    r.add_argument("scene", nargs="?", help="scene TOML (default: the bundled paper scene)")
+    r.add_argument("--out", help="output HDF5 file (default: NAME_seedSEED.h5)")
+    r.add_argument("--overwrite", action="store_true", help="replace an existing output file")
+    r.add_argument("--resume", action="store_true", help="continue an interrupted run from its checkpoint")
+    r.add_argument("--threads", type=int, help="CPU threads (results do not depend on it)")
+    r.add_argument("--mode", choices=("auto", "serial", "parallel"), default="auto", help=argparse.SUPPRESS)
+    _common_run_args(r)
+
+    c = sub.add_parser("check", help="validate a scene without running it")
+    c.add_argument("scene")
+    c.add_argument("--set", action="append", metavar="KEY=VALUE", default=[])
+
+    e = sub.add_parser("ensemble", help="seeds x parameter values on a Dask cluster, one file per run")
+    e.add_argument("scene", nargs="?")
+    e.add_argument("--seeds", type=int, required=True, help="run seeds 1..K")
+    e.add_argument("--out", required=True, help="output directory")
+    e.add_argument("--workers", type=int, help="local worker processes (default: CPU count)")
+    e.add_argument("--scheduler", help="address of an existing Dask scheduler")
+    e.add_argument("--set", action="append", metavar="KEY=V1,V2,...", default=[], help="override; comma lists are swept")
+
+    pl = sub.add_parser("plot", help="the paper's figures and the energy budget from run files")
+    pl.add_argument("runs", nargs="+")
+    pl.add_argument("--out", required=True, help="output directory for PNG/PDF files")
+    pl.add_argument("--times", help="comma-separated times for the snapshot and position figures")
+    pl.add_argument("--width-m", type=float, default=70.0, help="iceberg width in metres for the physical axes")
+
+    rd = sub.add_parser("render", help="frames (PNG) and an MP4 movie of a run, headless")
+    rd.add_argument("run")
+    rd.add_argument("--out", required=True, help="FILE.mp4 or a directory for PNG frames")
+    rd.add_argument("--discs", action="store_true", help="draw the collision discs")
+    rd.add_argument("--every", type=int, default=1, help="use every k-th snapshot")
+    rd.add_argument("--fps", type=int, default=20)
+
+    b = sub.add_parser("bench", help="benchmarks: scaling, accuracy, effects, peers")
+    b.add_argument("which", choices=("scaling", "accuracy", "effects", "peers"))
+    b.add_argument("--out", default="benchmarks/results", help="directory for CSV and PNG results")
+    b.add_argument("--quick", action="store_true", help="a tiny smoke run")
+    return p
+
+
+def _cmd_check(args) -> int:
+    from . import scene
+
+    sc = scene.load(args.scene, scene.parse_overrides(args.set))
+    print(f"{args.scene}: ok ({sc.icebergs().count} icebergs, effects {', '.join(sc.effects.names()) or 'none'}, "
+          f"{sc.time.steps} steps of dt = {sc.time.dt})")
+    return 0
+
+
+def _cmd_run(args) -> int:
+    from . import runtime, scene
+    from .simulation import Simulation
+
+    if args.threads is not None and args.threads < 1:
+        raise scene.SceneError(f"--threads = {args.threads}: must be >= 1")
+    sc = scene.load(args.scene, scene.parse_overrides(args.set))
+    out = Path(args.out) if args.out else Path(f"{sc.name}_seed{sc.time.seed}.h5")
+    sim = Simulation(sc, out, overwrite=args.overwrite, resume=args.resume, arch=args.arch, mode=args.mode)
+    runtime.init(args.arch, args.threads, sc.precision)
+    summary = sim.run()
+    for line in summary.lines():
+        print(line)
+    return 0
+
+
+def _cmd_other(args) -> int:
+    if args.command == "ensemble":
+        from .ensemble import main as run
+    elif args.command == "plot":
+        from .analysis.figures import main as run
+    elif args.command == "render":
+        from .analysis.render import main as run
+    else:
+        from .bench import main as run
+    return run(args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    from .io.hdf5 import OutputError
+    from .model import ContactOverflow
+    from .runtime import ArchError
+    from .scene import SceneError
+    from .simulation import NumericalError, RunError
+
+    args = build_parser().parse_args(argv)
+    handlers = {"run": _cmd_run, "check": _cmd_check}
+    try:
+        return handlers.get(args.command, _cmd_other)(args)
+    except (SceneError, RunError, OutputError, ArchError) as exc:
+        print(f"melange-ti: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except (NumericalError, ContactOverflow) as exc:
+        print(f"melange-ti: error: {exc}", file=sys.stderr)
+        return EXIT_RUNTIME
+    except KeyboardInterrupt:
+        print("melange-ti: interrupted; resume with --resume", file=sys.stderr)
+        return 130

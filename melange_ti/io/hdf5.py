@@ -1,0 +1,185 @@
+"""The run file (SPEC section 5): streamed, chunked, flushed, readable while written (SWMR).
+
+Every dataset is created before SWMR mode starts. Rows are appended with the ``time``
+dataset of each group written last, so a reader (or a file cut short by ``kill -9``) can trust
+the shortest consistent length: :func:`consistent_length`.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+FORMAT_VERSION = 1
+STATE = ("x", "z", "theta", "vx", "vz", "omega")
+DIAGNOSTICS = (
+    "capsized_fraction",
+    "leading_edge",
+    "kinetic_energy",
+    "potential_energy",
+    "drag_dissipated",
+    "collision_dissipated",
+    "correction_work",
+    "contacts",
+    "wall_force",
+    "impulse_rate",
+)
+DIAG_INT = ("contacts",)
+
+
+class OutputError(RuntimeError):
+    """The output file cannot be written (one-line message)."""
+
+
+class RunWriter:
+    """Appends snapshots and diagnostics to one HDF5 run file.
+
+    ``mode="w"`` creates the file (refusing an existing one unless ``overwrite``);
+    ``mode="r+"`` reopens a file to resume it, truncated to ``resume_time``.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        attrs: dict | None = None,
+        constants: dict[str, np.ndarray] | None = None,
+        dtype: type = np.float64,
+        mode: str = "w",
+        resume_time: float | None = None,
+    ):
+        self.path = Path(path)
+        self.dtype = np.dtype(dtype)
+        try:
+            if mode == "w":
+                self.f = h5py.File(self.path, "w", libver="latest")
+                self._create(attrs or {}, constants or {})
+            else:
+                self.f = h5py.File(self.path, "r+", libver="latest")
+                self._truncate(resume_time)
+            self.f.swmr_mode = True
+        except OSError as exc:
+            raise OutputError(f"--out {str(self.path)!r}: cannot write ({_reason(exc)})") from None
+        self._pending: list[dict] = []
+        # Dataset handles looked up once: h5py's group lookup costs more than a small write.
+        self._snap = {k: self.f["snapshots"][k] for k in ("time", *STATE)}
+        self._diag = {k: self.f["diagnostics"][k] for k in ("time", *DIAGNOSTICS)}
+        self._nsnap = self._snap["time"].shape[0]
+        self._ndiag = self._diag["time"].shape[0]
+
+    def _create(self, attrs: dict, constants: dict[str, np.ndarray]) -> None:
+        f = self.f
+        for k, v in attrs.items():
+            f.attrs[k] = v
+        f.attrs["format_version"] = FORMAT_VERSION
+        f.attrs["complete"] = False
+        n = len(next(iter(constants.values()))) if constants else 0
+        g = f.create_group("icebergs")
+        for k, v in constants.items():
+            g.create_dataset(k, data=np.asarray(v, dtype=self.dtype))
+        rows = max(1, min(64, 65536 // max(n, 1)))
+        s = f.create_group("snapshots")
+        s.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(256,))
+        for k in STATE:
+            s.create_dataset(k, shape=(0, n), maxshape=(None, n), dtype=self.dtype, chunks=(rows, max(n, 1)))
+        d = f.create_group("diagnostics")
+        d.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(1024,))
+        for k in DIAGNOSTICS:
+            d.create_dataset(k, shape=(0,), maxshape=(None,), dtype=np.int64 if k in DIAG_INT else np.float64, chunks=(1024,))
+
+    def _truncate(self, t: float | None) -> None:
+        """Drop rows after time ``t`` (and any rows past the consistent length)."""
+        for group in ("snapshots", "diagnostics"):
+            g = self.f[group]
+            n = consistent_length(g)
+            times = g["time"][:n]
+            keep = int(np.searchsorted(times, t + 1e-9 * max(1.0, abs(t)), side="right")) if t is not None else n
+            for ds in g.values():
+                ds.resize(keep, axis=0)
+        self.f.attrs["complete"] = False
+
+    def snapshot(self, t: float, state: dict[str, np.ndarray]) -> None:
+        """Append one snapshot of every iceberg; written and flushed at once."""
+        k = self._nsnap
+        try:
+            for name in (*STATE, "time"):
+                ds = self._snap[name]
+                ds.resize(k + 1, axis=0)
+                ds[k] = t if name == "time" else state[name]
+            self._nsnap = k + 1
+            self.flush()
+        except OSError as exc:
+            raise OutputError(f"{self.path}: write failed ({_reason(exc)})") from None
+
+    def diagnostic(self, row: dict[str, float]) -> None:
+        """Queue one diagnostic row; rows are written at the next :meth:`flush`."""
+        self._pending.append(row)
+
+    def flush(self) -> None:
+        """Write queued diagnostics (time last) and flush the file to disk."""
+        try:
+            if self._pending:
+                k = self._ndiag
+                m = len(self._pending)
+                for name in (*DIAGNOSTICS, "time"):
+                    ds = self._diag[name]
+                    ds.resize(k + m, axis=0)
+                    ds[k:] = np.array([r[name] for r in self._pending], dtype=ds.dtype)
+                self._ndiag = k + m
+                self._pending.clear()
+            self.f.flush()
+        except OSError as exc:
+            raise OutputError(f"{self.path}: write failed ({_reason(exc)})") from None
+
+    def close(self, complete: bool = False) -> None:
+        if not self.f.id.valid:
+            return
+        try:
+            self.flush()
+            if complete:
+                self.f.attrs["complete"] = True
+        finally:
+            self.f.close()
+
+
+def _reason(exc: OSError) -> str:
+    text = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
+    if getattr(exc, "errno", None):
+        return os.strerror(exc.errno)
+    return text
+
+
+def consistent_length(group: h5py.Group) -> int:
+    """Rows of a group that every dataset holds (the time dataset is written last)."""
+    return min(ds.shape[0] for ds in group.values())
+
+
+def read_run(path: str | Path) -> dict:
+    """Load a run file into plain numpy arrays, cut to consistent lengths.
+
+    Returns ``{"attrs": {...}, "icebergs": {...}, "snapshots": {...}, "diagnostics": {...}}``.
+    Raises :class:`OutputError` with one line for a file that is not a readable run.
+    """
+    path = Path(path)
+    try:
+        with h5py.File(path, "r", libver="latest", swmr=True) as f:
+            out = {"attrs": {k: _plain(v) for k, v in f.attrs.items()}}
+            for group in ("icebergs", "snapshots", "diagnostics"):
+                g = f[group]
+                n = consistent_length(g) if group != "icebergs" else None
+                out[group] = {k: (ds[:n] if n is not None else ds[:]) for k, ds in g.items()}
+    except FileNotFoundError:
+        raise OutputError(f"{path}: not found") from None
+    except (OSError, KeyError, ValueError) as exc:
+        raise OutputError(f"{path}: not a readable melange_ti run file ({str(exc).splitlines()[0]})") from None
+    return out
+
+
+def _plain(v):
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v

@@ -1,0 +1,45 @@
+"""Disc geometry and the normal impulse law (Taichi functions; SPEC section 2).
+
+Each rectangle carries ``discs`` equal discs, ``k = discs/4`` per face, their centres spread
+evenly around the rectangle inset by the radius (face ``f`` starts at an inset corner and
+takes ``k`` equal steps towards the next), so the union is tangent to the true faces and the
+spacing on the longest face is exactly ``2 radius`` (see :func:`melange_ti.scene.disc_radius`).
+"""
+
+import taichi as ti
+
+
+@ti.func
+def disc_local(a, k, hw, hh, r):
+    """Centre of disc ``a`` in the body frame (u along the width, v along the thickness)."""
+    f = a // k
+    t = (a % k) / k
+    iu = hw - r
+    iv = hh - r
+    u = 0.0
+    v = 0.0
+    if f == 0:
+        u = iu
+        v = -iv + 2.0 * iv * t
+    elif f == 1:
+        u = iu - 2.0 * iu * t
+        v = iv
+    elif f == 2:
+        u = -iu
+        v = iv - 2.0 * iv * t
+    else:
+        u = -iu + 2.0 * iu * t
+        v = -iv
+    return ti.Vector([u, v])
+
+
+@ti.func
+def to_world(local, x, z, c, s):
+    """Body-frame point -> world point for a body at (x, z) with cos/sin of its tilt."""
+    return ti.Vector([x + local[0] * c - local[1] * s, z + local[0] * s + local[1] * c])
+
+
+@ti.func
+def cross2(a, b):
+    """z-component of the 2-D cross product ``a x b``."""
+    return a[0] * b[1] - a[1] * b[0]

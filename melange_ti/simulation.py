@@ -1,0 +1,291 @@
+"""The Simulation: run loop, output schedules, guards and checkpoints; no physics here.
+
+Schedules are whole numbers of steps (SPEC requires every interval to be a multiple of dt),
+so output times are exactly ``step * dt``. Between two output events the model advances in
+one call with no host transfer; at an event one packed transfer gives state and energies.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time as wallclock
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from . import __version__
+from . import diagnostics as diag
+from .io import checkpoint
+from .io.hdf5 import RunWriter, read_run
+from .model import Model
+from .scene import Scene
+
+
+class RunError(RuntimeError):
+    """A run that cannot start or continue (one-line message, exit status 2)."""
+
+
+class NumericalError(RuntimeError):
+    """The state became non-finite or the energy ran away; output up to here is kept."""
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    path: Path
+    steps: int
+    wall_seconds: float
+    steps_per_second: float
+    time: float
+    capsized_fraction: float
+    leading_edge: float
+    energy_released: float
+    dissipated: float
+    energy_residual: float
+
+    def lines(self) -> list[str]:
+        rel = self.energy_residual / self.energy_released if self.energy_released else float("nan")
+        return [
+            f"simulated t = {self.time:g} in {self.steps} steps, {self.wall_seconds:.1f} s wall, {self.steps_per_second:,.0f} steps/s",
+            f"capsized fraction {self.capsized_fraction:.3f}, leading edge {self.leading_edge:.3f} widths",
+            f"energy budget: released {self.energy_released:.6g}, dissipated {self.dissipated:.6g}, "
+            f"residual {self.energy_residual:.3g} ({rel:.2%} of released)",
+            f"output: {self.path}",
+        ]
+
+
+@dataclass
+class _Counters:
+    """Cumulative totals at the previous diagnostic (rates are differences of these)."""
+
+    t: float = 0.0
+    contacts: int = 0
+    wall_impulse: float = 0.0
+    impulse_sum: float = 0.0
+
+
+class Simulation:
+    """Run ``scene`` into the HDF5 file ``out``.
+
+    ``resume`` continues an interrupted run from its checkpoint so that the final file is
+    bit-identical to an uninterrupted run. ``progress`` is a tqdm-like factory or ``None``
+    (a bar on a terminal, silent otherwise).
+    """
+
+    def __init__(
+        self,
+        scene: Scene,
+        out: str | Path,
+        overwrite: bool = False,
+        resume: bool = False,
+        arch: str = "cpu",
+        progress: bool | None = None,
+        mode: str = "auto",
+        on_event: Callable[[int], None] | None = None,
+    ):
+        self.scene = scene
+        self.out = Path(out)
+        self.ckpt = checkpoint.checkpoint_path(self.out)
+        self.overwrite = overwrite
+        self.resume = resume
+        self.arch = arch
+        self.progress = sys.stderr.isatty() if progress is None else progress
+        self.mode = mode
+        self.on_event = on_event
+        dt = scene.time.dt
+        self.total = scene.time.steps
+        self.every_diag = round(scene.output.diagnostic_interval / dt)
+        self.every_snap = round(scene.output.snapshot_interval / dt)
+        self.every_ckpt = round(scene.output.checkpoint_interval / dt)
+        self._check_paths()
+
+    def _check_paths(self) -> None:
+        if self.resume:
+            if not self.out.exists():
+                raise RunError(f"--resume: {self.out} does not exist")
+            return
+        if self.out.exists() and not self.overwrite:
+            raise RunError(f"--out {self.out}: file exists (use --overwrite to replace it, --resume to continue it)")
+        parent = self.out.parent if str(self.out.parent) else Path(".")
+        if not parent.is_dir():
+            raise RunError(f"--out {self.out}: directory {parent} does not exist")
+
+    # ------------------------------------------------------------------ run
+    def run(self) -> RunSummary:
+        import taichi as ti
+
+        scene = self.scene
+        dtype = np.float32 if scene.precision == "f32" else np.float64
+        self.model = model = Model(scene, mode=self.mode)
+        counters = _Counters()
+        start_step = 0
+        if self.resume:
+            writer, start_step, counters, self.x0_max, self.e0 = self._reopen(model, dtype)
+        else:
+            attrs = {
+                "scene_toml": scene.to_toml(),
+                "melange_ti_version": __version__,
+                "taichi_version": ".".join(map(str, ti.__version__)),
+                "arch": self.arch,
+                "precision": scene.precision,
+                "seed": scene.time.seed,
+            }
+            if self.out.exists():
+                self.out.unlink()
+            writer = RunWriter(self.out, attrs, model.constants(), dtype)
+        self.writer = writer
+        self.total_mass = float(model.constants()["mass"].sum())
+        bar = None
+        if self.progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=self.total, initial=start_step, unit="step", unit_scale=True, dynamic_ncols=True, leave=False)
+        t0 = wallclock.perf_counter()
+        step = start_step
+        last = None
+        try:
+            if not self.resume:
+                last = self._events(0, counters, first=True)
+            while step < self.total:
+                nxt = min(self._next(step, self.every_diag), self._next(step, self.every_snap), self._next(step, self.every_ckpt), self.total)
+                model.advance(nxt - step)
+                if bar is not None:
+                    bar.update(nxt - step)
+                step = nxt
+                last = self._events(step, counters) or last
+        finally:
+            if bar is not None:
+                bar.close()
+            writer.close(complete=step >= self.total)
+        wall = wallclock.perf_counter() - t0
+        if step >= self.total and self.ckpt.exists():
+            self.ckpt.unlink()
+        return self._summary(step - start_step, wall)
+
+    @staticmethod
+    def _next(step: int, every: int) -> int:
+        return (step // every + 1) * every
+
+    def _events(self, step: int, c: _Counters, first: bool = False) -> dict | None:
+        final = step == self.total
+        want_diag = step % self.every_diag == 0 or final
+        want_snap = step % self.every_snap == 0 or final
+        want_ckpt = step % self.every_ckpt == 0 and not final
+        if not (want_diag or want_snap or want_ckpt):
+            return None
+        t = step * self.scene.time.dt
+        s = self.model.sample()
+        if first:
+            self.x0_max = float(np.max(s["x"]))
+            self.e0 = float(np.sum(s["kinetic"]) + np.sum(s["potential"]))
+        row = None
+        if want_diag:
+            row = self._diag_row(t, s, c)
+            self.writer.diagnostic(row)
+        self._guard(step, t, s, row)
+        if want_snap:
+            self.writer.snapshot(t, s)
+        if want_ckpt:
+            self.writer.flush()
+            self._save_checkpoint(step, c)
+        if self.on_event is not None:
+            self.on_event(step)
+        return row
+
+    def _diag_row(self, t: float, s: dict, c: _Counters) -> dict:
+        tot = self.model.totals()
+        span = t - c.t
+        row = {
+            "time": t,
+            "capsized_fraction": diag.capsized_fraction(s["theta"]),
+            "leading_edge": diag.leading_edge(s["x"], self.x0_max),
+            "kinetic_energy": float(np.sum(s["kinetic"])),
+            "potential_energy": float(np.sum(s["potential"])),
+            "drag_dissipated": float(np.sum(s["drag_work"])),
+            "collision_dissipated": tot.collision_dissipated,
+            "correction_work": tot.correction_work,
+            "contacts": tot.contacts - c.contacts,
+            "wall_force": (tot.wall_impulse - c.wall_impulse) / span if span > 0 else 0.0,
+            "impulse_rate": (tot.impulse_sum - c.impulse_sum) / span if span > 0 else 0.0,
+        }
+        c.t, c.contacts, c.wall_impulse, c.impulse_sum = t, tot.contacts, tot.wall_impulse, tot.impulse_sum
+        self._last_row = row
+        return row
+
+    def _guard(self, step: int, t: float, s: dict, row: dict | None) -> None:
+        bad = None
+        for name in ("x", "z", "theta", "vx", "vz", "omega"):
+            nonfinite = np.flatnonzero(~np.isfinite(s[name]))
+            if nonfinite.size:
+                bad = f"iceberg {int(nonfinite[0])} has non-finite {name}"
+                break
+        if bad is None and row is not None:
+            energy = row["kinetic_energy"] + row["potential_energy"]
+            rise = energy - self.e0
+            if not math.isfinite(energy) or rise > self.total_mass:
+                worst = int(np.argmax(s["kinetic"]))
+                bad = f"energy ran away (rose by {rise:.3g} > total mass {self.total_mass:.3g}; fastest iceberg {worst})"
+        if bad is not None:
+            self.writer.snapshot(t, s)
+            self.writer.flush()
+            raise NumericalError(f"step {step} (t = {t:g}): {bad}; output kept in {self.out}")
+
+    # ------------------------------------------------------------------ checkpoints
+    def _save_checkpoint(self, step: int, c: _Counters) -> None:
+        acc = self.model.accumulators()
+        state = self.model.state()
+        checkpoint.save(
+            self.ckpt,
+            {
+                "scene_toml": self.scene.to_toml(),
+                "step": step,
+                **{f"state_{k}": v for k, v in state.items()},
+                **{f"acc_{k}": v for k, v in acc.items()},
+                "counters": np.array([c.t, c.wall_impulse, c.impulse_sum]),
+                "counter_contacts": c.contacts,
+                "x0_max": self.x0_max,
+                "e0": self.e0,
+            },
+        )
+
+    def _reopen(self, model: Model, dtype):
+        if not self.ckpt.exists():
+            raise RunError(f"--resume: no checkpoint {self.ckpt} (the run finished, or never started; use --overwrite)")
+        try:
+            ck = checkpoint.load(self.ckpt)
+        except (OSError, ValueError, KeyError) as exc:
+            raise RunError(f"--resume: checkpoint {self.ckpt} is unreadable ({exc.__class__.__name__})") from None
+        text = self.scene.to_toml()
+        if str(ck["scene_toml"]) != text:
+            raise RunError(f"--resume: {self.out} was made by a different scene (or --set values); refusing to mix them")
+        stored = read_run(self.out)["attrs"].get("scene_toml")
+        if stored != text:
+            raise RunError(f"--resume: {self.out} was made by a different scene (or --set values); refusing to mix them")
+        step = int(ck["step"])
+        model.set_state({k[6:]: ck[k] for k in ck if k.startswith("state_")})
+        model.set_accumulators({k[4:]: ck[k] for k in ck if k.startswith("acc_")})
+        t_prev, wall, imp = (float(v) for v in ck["counters"])
+        counters = _Counters(t=t_prev, contacts=int(ck["counter_contacts"]), wall_impulse=wall, impulse_sum=imp)
+        writer = RunWriter(self.out, dtype=dtype, mode="r+", resume_time=step * self.scene.time.dt)
+        return writer, step, counters, float(ck["x0_max"]), float(ck["e0"])
+
+    def _summary(self, steps: int, wall: float) -> RunSummary:
+        row = getattr(self, "_last_row", None) or {}
+        energy = row.get("kinetic_energy", 0.0) + row.get("potential_energy", 0.0)
+        released = self.e0 - energy
+        dissipated = row.get("drag_dissipated", 0.0) + row.get("collision_dissipated", 0.0) + row.get("correction_work", 0.0)
+        return RunSummary(
+            path=self.out,
+            steps=steps,
+            wall_seconds=wall,
+            steps_per_second=steps / wall if wall > 0 else float("inf"),
+            time=row.get("time", 0.0),
+            capsized_fraction=row.get("capsized_fraction", float("nan")),
+            leading_edge=row.get("leading_edge", float("nan")),
+            energy_released=released,
+            dissipated=dissipated,
+            energy_residual=released - dissipated,
+        )
+
