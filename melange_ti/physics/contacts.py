@@ -43,3 +43,35 @@ def to_world(local, x, z, c, s):
 def cross2(a, b):
     """z-component of the 2-D cross product ``a x b``."""
     return a[0] * b[1] - a[1] * b[0]
+
+
+@ti.func
+def face_range(f, k, hw, hh, r, pu, pv, reach_r):
+    """Index range [lo, hi] of the discs on face ``f`` whose centres lie within ``reach_r``
+    of the body-frame point (pu, pv); empty when lo > hi. Matches :func:`disc_local`."""
+    iu = hw - r
+    iv = hh - r
+    # face f runs from (su*iu, sv*iv) along the unit direction (du, dv)
+    su, sv, du, dv, length = 1.0, -1.0, 0.0, 1.0, 2.0 * iv
+    if f == 1:
+        su, sv, du, dv, length = 1.0, 1.0, -1.0, 0.0, 2.0 * iu
+    elif f == 2:
+        su, sv, du, dv, length = -1.0, 1.0, 0.0, -1.0, 2.0 * iv
+    elif f == 3:
+        su, sv, du, dv, length = -1.0, -1.0, 1.0, 0.0, 2.0 * iu
+    ru = pu - su * iu
+    rv = pv - sv * iv
+    along = ru * du + rv * dv
+    perp = ti.abs(ru * dv - rv * du)
+    lo = 1
+    hi = 0
+    if perp < reach_r:
+        half = ti.sqrt(reach_r * reach_r - perp * perp)
+        step = length / k
+        if step > 1e-12 * (hw + hh):
+            lo = ti.max(0, ti.cast(ti.ceil((along - half) / step), ti.i32))
+            hi = ti.min(k - 1, ti.cast(ti.floor((along + half) / step), ti.i32))
+        elif ru * ru + rv * rv < reach_r * reach_r:
+            lo = 0
+            hi = k - 1
+    return lo, hi

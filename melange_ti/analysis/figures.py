@@ -1,0 +1,576 @@
+"""``melange-ti plot``: the paper's figures and the energy budget from run files (PNG + PDF).
+
+Runs are grouped by the scene keys whose values differ between them (``contacts.discs``,
+``shelf.thickness_std``, ...; the seed, the duration and the output schedule never make a
+group, see :data:`melange_ti.analysis.stats.NON_PARAMETER_KEYS`). Each group is one curve:
+the ensemble mean with a band (or error bars) of one standard deviation over its runs, on
+the time grid of the group's run that ends first.
+
+Axes are non-dimensional (widths ``w``, time ``sqrt(w/g)``, energy ``rho_w g w^3`` and force
+``rho_w g w^2`` per unit length of ice front) with a second axis in physical units for an
+iceberg ``--width-m`` metres wide (time unit ``sqrt(width_m / 9.81)`` s, ``rho_w = 1025``).
+
+Files written to ``--out``:
+
+==================================  =============================================================
+``fig2_snapshots``                  icebergs with their discs near the leading edge at chosen times
+``fig3_capsized_fraction``          fraction capsized (``phi >= pi/4``) vs time
+``fig4_leading_edge``               leading edge vs time
+``fig5_capsized_by_position``       fraction capsized in bins of 10 widths, at several times
+``energy_budget``                   released, kinetic, dissipated (drag, collisions, corrections), residual
+``impulse_rate_wall_force``         collision impulse rate (a seismic proxy) and force on the wall
+``capsized_fraction_by_thickness_std``  Fig. 3 grouped by ``shelf.thickness_std`` (only when several are given)
+``summary.csv``                     per group: runs, times of 50% / 90% capsized, final leading edge
+==================================  =============================================================
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..io.hdf5 import OutputError, read_run  # noqa: E402
+from ..scene import Scene, SceneError, loads  # noqa: E402
+from . import stats  # noqa: E402
+from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners  # noqa: E402
+
+G_SI = 9.81  # m s^-2
+RHO_WATER_SI = 1025.0  # kg m^-3, SPEC section 2
+BIN_WIDTH = 10.0  # widths, paper Fig. 5
+SNAPSHOT_SPAN = 30.0  # widths behind the leading edge shown in Fig. 2
+PAPER_FIG2_TIMES = (100.0, 200.0, 300.0, 400.0)
+REQUIRED_DIAGNOSTICS = (
+    "time",
+    "capsized_fraction",
+    "leading_edge",
+    "kinetic_energy",
+    "potential_energy",
+    "drag_dissipated",
+    "collision_dissipated",
+    "correction_work",
+)
+DPI = 150
+
+
+# ---------------------------------------------------------------------------------------
+# Units
+
+
+@dataclass(frozen=True)
+class Units:
+    """Physical scales for an iceberg ``width_m`` metres wide (SPEC section 1)."""
+
+    width_m: float = 70.0
+    rho_water: float = RHO_WATER_SI
+
+    @property
+    def time_s(self) -> float:
+        """One time unit ``sqrt(w/g)`` in seconds (2.67 s for 70 m)."""
+        return math.sqrt(self.width_m / G_SI)
+
+    @property
+    def energy_j_per_m(self) -> float:
+        """One energy unit ``rho_w g w^3`` in J per metre of ice front."""
+        return self.rho_water * G_SI * self.width_m**3
+
+    @property
+    def force_n_per_m(self) -> float:
+        """One force unit ``rho_w g w^2`` in N per metre of ice front."""
+        return self.rho_water * G_SI * self.width_m**2
+
+
+def _time_scale(units: Units, tmax: float) -> tuple[float, str]:
+    seconds = tmax * units.time_s
+    if seconds >= 2 * 3600:
+        return units.time_s / 3600.0, "h"
+    if seconds >= 120:
+        return units.time_s / 60.0, "min"
+    return units.time_s, "s"
+
+
+def _length_scale(units: Units, lmax: float) -> tuple[float, str]:
+    return (units.width_m / 1000.0, "km") if abs(lmax) * units.width_m >= 2000 else (units.width_m, "m")
+
+
+def _si_scale(value: float, unit: str) -> tuple[float, str]:
+    """A prefix for ``value`` in ``unit``: returns (factor to multiply by, prefixed unit)."""
+    for factor, prefix in ((1e-12, "T"), (1e-9, "G"), (1e-6, "M"), (1e-3, "k")):
+        if abs(value) * factor >= 1.0:
+            return factor, prefix + unit
+    return 1.0, unit
+
+
+def _secondary(ax, axis: str, factor: float, label: str):
+    f = (lambda v, k=factor: v * k, lambda v, k=factor: v / k)
+    sec = ax.secondary_xaxis("top", functions=f) if axis == "x" else ax.secondary_yaxis("right", functions=f)
+    sec.set_xlabel(label) if axis == "x" else sec.set_ylabel(label)
+    return sec
+
+
+def time_axes(ax, units: Units, tmax: float, top: bool = True) -> None:
+    ax.set_xlabel("time t (√(w/g))")
+    if top:
+        k, u = _time_scale(units, tmax)
+        _secondary(ax, "x", k, f"time ({u}) for w = {units.width_m:g} m")
+
+
+def length_axis(ax, axis: str, units: Units, lmax: float, what: str) -> None:
+    k, u = _length_scale(units, lmax)
+    _secondary(ax, axis, k, f"{what} ({u})")
+
+
+# ---------------------------------------------------------------------------------------
+# Runs and groups
+
+
+@dataclass
+class Run:
+    path: Path
+    data: dict
+    scene: Scene
+    flat: dict
+
+    @property
+    def diag(self) -> dict:
+        return self.data["diagnostics"]
+
+    @property
+    def snaps(self) -> dict:
+        return self.data["snapshots"]
+
+    @property
+    def seed(self) -> int:
+        return self.scene.time.seed
+
+
+@dataclass
+class Group:
+    key: tuple
+    label: str
+    runs: list[Run]
+
+    def series(self, name: str) -> stats.Ensemble:
+        return stats.ensemble([(r.diag["time"], r.diag[name]) for r in self.runs])
+
+
+def load_run(path: str | Path) -> Run:
+    """One run file with its scene; a one-line :class:`OutputError` if it cannot be plotted."""
+    path = Path(path)
+    data = read_run(path)
+    text = data["attrs"].get("scene_toml")
+    if not isinstance(text, str):
+        raise OutputError(f"{path}: not a melange_ti run file (no scene_toml attribute)")
+    try:
+        scene = loads(text)
+    except SceneError as exc:
+        raise SceneError(f"{path}: stored scene: {exc}") from None
+    missing = [k for k in REQUIRED_DIAGNOSTICS if k not in data["diagnostics"]]
+    missing += [f"snapshots/{k}" for k in ("time", "x", "z", "theta") if k not in data["snapshots"]]
+    missing += [f"icebergs/{k}" for k in ("width", "thickness") if k not in data["icebergs"]]
+    if missing:
+        raise OutputError(f"{path}: not a melange_ti run file (missing {', '.join(missing)})")
+    if len(data["snapshots"]["time"]) == 0:
+        raise OutputError(f"{path}: no snapshots yet (nothing to plot)")
+    if len(data["diagnostics"]["time"]) == 0:
+        raise OutputError(f"{path}: no diagnostics yet (nothing to plot)")
+    return Run(path=path, data=data, scene=scene, flat=stats.flatten_scene(scene.source))
+
+
+def make_groups(runs: Sequence[Run], keys: Sequence[str] | None = None) -> list[Group]:
+    """Group runs by ``keys`` (default: every parameter key whose value differs between them)."""
+    flats = [r.flat for r in runs]
+    if keys is None:
+        keys = stats.differing_keys(flats)
+    return [
+        Group(key=k, label=stats.group_label(k), runs=[runs[i] for i in idx])
+        for k, idx in stats.group_by_keys(flats, keys).items()
+    ]
+
+
+def parse_times(text: str | None) -> list[float] | None:
+    """``"100,200,300"`` -> ``[100.0, 200.0, 300.0]``; one-line :class:`SceneError` if malformed."""
+    if text is None:
+        return None
+    out = []
+    for item in text.split(","):
+        item = item.strip()
+        try:
+            t = float(item)
+        except ValueError:
+            raise SceneError(f"--times {text!r}: {item!r} is not a number") from None
+        if not math.isfinite(t) or t < 0:
+            raise SceneError(f"--times {text!r}: {item!r} must be a finite time >= 0")
+        out.append(t)
+    if not out:
+        raise SceneError(f"--times {text!r}: give comma-separated times")
+    return sorted(set(out))
+
+
+def last_snapshot_time(runs: Sequence[Run]) -> float:
+    return min(float(r.snaps["time"][-1]) for r in runs)
+
+
+def default_times(t_end: float) -> tuple[list[float], list[float]]:
+    """Default times for Fig. 2 (the paper's 100..400 when the runs reach them) and Fig. 5."""
+    fig2 = list(PAPER_FIG2_TIMES) if t_end >= PAPER_FIG2_TIMES[-1] else [t_end * f for f in (0.25, 0.5, 0.75, 1.0)]
+    fig5 = [t_end * f for f in (0.125, 0.25, 0.5, 1.0)]
+    return fig2, fig5
+
+
+def snap_times(times: Sequence[float], runs: Sequence[Run]) -> list[float]:
+    """Each time moved to the nearest snapshot of the run that ends first; duplicates dropped."""
+    shortest = min(runs, key=lambda r: float(r.snaps["time"][-1]))
+    t = shortest.snaps["time"]
+    return sorted({float(t[stats.nearest_index(t, x)]) for x in times})
+
+
+def check_times(times: Sequence[float], runs: Sequence[Run]) -> None:
+    t_end = last_snapshot_time(runs)
+    late = [t for t in times if t > t_end * (1 + 1e-9) + 1e-9]
+    if late:
+        shortest = min(runs, key=lambda r: float(r.snaps["time"][-1]))
+        raise SceneError(f"--times {late[0]:g}: after the last snapshot (t = {t_end:g}) of {shortest.path}")
+
+
+# ---------------------------------------------------------------------------------------
+# Figures
+
+
+def _colors(n: int) -> list:
+    cmap = plt.get_cmap("tab10")
+    return [cmap(i % 10) for i in range(n)]
+
+
+def _band(ax, ens: stats.Ensemble, color, label: str, **kw) -> None:
+    ax.plot(ens.time, ens.mean, color=color, label=label, lw=1.4, **kw)
+    if ens.runs > 1:
+        ax.fill_between(ens.time, ens.mean - ens.std, ens.mean + ens.std, color=color, alpha=0.22, lw=0)
+
+
+def _label(group: Group) -> str:
+    n = len(group.runs)
+    return f"{group.label} ({n} run{'s' if n != 1 else ''})"
+
+
+def _tmax(groups: Sequence[Group]) -> float:
+    return max(float(g.series("capsized_fraction").time[-1]) for g in groups)
+
+
+def fig_capsized_fraction(groups: Sequence[Group], units: Units, title: str | None = None):
+    """Paper Fig. 3: the fraction capsized vs time, mean and one standard deviation."""
+    fig, ax = plt.subplots(figsize=(7.0, 4.6), layout="constrained")
+    for g, color in zip(groups, _colors(len(groups))):
+        ens = g.series("capsized_fraction")
+        _band(ax, ens, color, _label(g))
+        for level, t in stats.capsize_times(ens.time, ens.mean).items():
+            if math.isfinite(t):
+                ax.plot([t], [level], marker="o", ms=4, color=color)
+    ax.set_ylabel("fraction capsized (φ ≥ 45°)")
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    time_axes(ax, units, _tmax(groups))
+    ax.legend(fontsize=8, loc="lower right")
+    ax.set_title(title or "Capsized fraction (mean ± 1 s.d.; dots: 50% and 90%)", fontsize=10)
+    return fig
+
+
+def fig_leading_edge(groups: Sequence[Group], units: Units):
+    """Paper Fig. 4: the leading edge ``max x(t) - max x(0)`` vs time."""
+    fig, ax = plt.subplots(figsize=(7.0, 4.6), layout="constrained")
+    lmax = 0.0
+    for g, color in zip(groups, _colors(len(groups))):
+        ens = g.series("leading_edge")
+        _band(ax, ens, color, _label(g))
+        lmax = max(lmax, float(np.nanmax(np.abs(ens.mean))))
+    ax.set_ylabel("leading edge (widths)")
+    ax.grid(alpha=0.3)
+    time_axes(ax, units, _tmax(groups))
+    length_axis(ax, "y", units, lmax, f"leading edge for w = {units.width_m:g} m")
+    ax.legend(fontsize=8, loc="upper left")
+    ax.set_title("Leading edge of the mélange (mean ± 1 s.d.)", fontsize=10)
+    return fig
+
+
+def position_edges(runs: Sequence[Run], times: Sequence[float], bin_width: float = BIN_WIDTH) -> np.ndarray:
+    """Bins shared by all runs and times: from the wall (or the leftmost iceberg) on."""
+    lo, hi = math.inf, -math.inf
+    for r in runs:
+        for t in times:
+            x = r.snaps["x"][stats.nearest_index(r.snaps["time"], t)]
+            lo, hi = min(lo, float(np.min(x))), max(hi, float(np.max(x)))
+    start = runs[0].scene.physics.wall_x
+    if lo < start:
+        start -= bin_width * math.ceil((start - lo) / bin_width)
+    return stats.position_edges(start, hi, bin_width)
+
+
+def fig_capsized_by_position(groups: Sequence[Group], units: Units, times: Sequence[float], bin_width: float = BIN_WIDTH):
+    """Paper Fig. 5: fraction capsized in bins of ``bin_width`` widths, one curve per time."""
+    all_runs = [r for g in groups for r in g.runs]
+    edges = position_edges(all_runs, times, bin_width)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    n = len(groups)
+    fig, axes = plt.subplots(n, 1, figsize=(7.5, 2.2 + 2.4 * n), layout="constrained", squeeze=False, sharex=True)
+    cmap = plt.get_cmap("viridis")
+    for row, g in enumerate(groups):
+        ax = axes[row, 0]
+        snaps = [r.snaps for r in g.runs]
+        for j, t in enumerate(times):
+            mean, std, count = stats.capsized_by_position_ensemble(snaps, t, edges)
+            ok = count > 0
+            color = cmap(j / max(len(times) - 1, 1))
+            t_snap = float(g.runs[0].snaps["time"][stats.nearest_index(g.runs[0].snaps["time"], t)])
+            ax.errorbar(centres[ok], mean[ok], yerr=std[ok] if len(g.runs) > 1 else None, color=color, marker="o", ms=3,
+                        lw=1.2, capsize=2, label=f"t = {t_snap:g}")
+        ax.set_ylim(-0.03, 1.03)
+        ax.set_ylabel("fraction capsized")
+        ax.grid(alpha=0.3)
+        ax.set_title(f"{_label(g)}; bins of {bin_width:g} widths", fontsize=9, loc="left")
+        ax.legend(fontsize=7, loc="best", ncol=2)
+        if row == 0:
+            length_axis(ax, "x", units, float(edges[-1]), f"position for w = {units.width_m:g} m")
+    axes[-1, 0].set_xlabel("position x (widths)")
+    axes[-1, 0].set_xlim(edges[0], edges[-1])
+    fig.suptitle("Capsized fraction by position (mean ± 1 s.d. over runs)", fontsize=10)
+    return fig
+
+
+def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float], span: float = SNAPSHOT_SPAN, max_groups: int = 3):
+    """Paper Fig. 2: icebergs and their discs near the leading edge at ``times`` (first run of each group)."""
+    shown = list(groups)[:max_groups]
+    windows = []
+    zlo, zhi = math.inf, -math.inf
+    for g in shown:
+        r = g.runs[0]
+        w, h = r.data["icebergs"]["width"], r.data["icebergs"]["thickness"]
+        col = []
+        for t in times:
+            k = stats.nearest_index(r.snaps["time"], t)
+            x, z, th = r.snaps["x"][k], r.snaps["z"][k], r.snaps["theta"][k]
+            corners = rect_corners(x, z, th, w, h)
+            front = float(corners[:, :, 0].max())
+            left = max(front - span, float(corners[:, :, 0].min()))
+            sel = corners[:, :, 0].max(axis=1) >= left - 1.0
+            zlo, zhi = min(zlo, float(corners[sel, :, 1].min())), max(zhi, float(corners[sel, :, 1].max()))
+            col.append((k, sel, left - 0.5, front + 1.0))
+        windows.append(col)
+    nrow, ncol = len(times), len(shown)
+    width_w = max(c[3] - c[2] for col in windows for c in col)
+    zlo, zhi = min(zlo, 0.0) - 0.4, max(zhi, 0.0) + 0.4
+    panel_w = 10.0 if ncol == 1 else 6.0
+    panel_h = max(1.0, panel_w * (zhi - zlo) / width_w)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(panel_w * ncol + 1.0, panel_h * nrow + 1.4), squeeze=False,
+                             layout="constrained")
+    mappable = None
+    for c, (g, col) in enumerate(zip(shown, windows)):
+        r = g.runs[0]
+        w, h = r.data["icebergs"]["width"], r.data["icebergs"]["thickness"]
+        for row, (k, sel, x0, x1) in enumerate(col):
+            ax = axes[row, c]
+            draw_sea(ax, r.scene, (zlo, zhi))
+            art = IcebergArtist(ax, w[sel], h[sel], discs=r.scene.contacts.discs)
+            art.update(r.snaps["x"][k][sel], r.snaps["z"][k][sel], r.snaps["theta"][k][sel])
+            mappable = art.rects
+            ax.set_xlim(x1 - width_w, x1)
+            ax.set_ylim(zlo, zhi)
+            ax.set_aspect("equal")
+            ax.text(0.01, 0.95, f"t = {float(r.snaps['time'][k]):g}", transform=ax.transAxes, va="top", fontsize=8)
+            ax.set_ylabel("z (widths)", fontsize=8)
+            ax.tick_params(labelsize=7)
+            if row == 0:
+                ax.set_title(f"{g.label}, seed {r.seed} ({r.scene.contacts.discs} discs)", fontsize=9)
+                length_axis(ax, "x", units, x1, f"x for w = {units.width_m:g} m")
+            if row == nrow - 1:
+                ax.set_xlabel("x (widths)")
+    phi_colorbar(fig, mappable, axes.ravel().tolist(), shrink=0.8, fraction=0.04)
+    fig.suptitle("The leading edge of the mélange (icebergs coloured by capsize angle, with their collision discs)",
+                 fontsize=10)
+    return fig
+
+
+ENERGY_STYLE = {
+    "released": ("potential energy released E_p(0) − E_p(t)", "k", "-", 2.0),
+    "kinetic": ("kinetic energy E_k(t) − E_k(0)", "tab:orange", "-", 1.2),
+    "drag": ("drag dissipated", "tab:blue", "-", 1.2),
+    "collision": ("collision dissipated", "tab:red", "-", 1.2),
+    "correction": ("overlap-correction work", "tab:purple", "-", 1.2),
+    "residual": ("residual E(0) − E(t) − Σ dissipated", "0.4", "--", 1.2),
+}
+
+
+def energy_terms(group: Group) -> tuple[np.ndarray, dict[str, stats.Ensemble]]:
+    """Ensemble (mean, std) of each term of :func:`stats.energy_budget` for one group."""
+    budgets = [(r.diag["time"], stats.energy_budget(r.diag)) for r in group.runs]
+    grid = stats.common_grid([t for t, _ in budgets])
+    out = {
+        name: stats.ensemble([(t, b[name]) for t, b in budgets], grid=grid)
+        for name in (*stats.ENERGY_TERMS, "total_loss")
+    }
+    return grid, out
+
+
+def fig_energy_budget(groups: Sequence[Group], units: Units):
+    """Energy budget over time: potential released = kinetic + dissipated + residual."""
+    n = len(groups)
+    ncol = min(n, 2)
+    nrow = math.ceil(n / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(7.0 * ncol, 4.4 * nrow), squeeze=False, layout="constrained")
+    for i, g in enumerate(groups):
+        ax = axes[i // ncol, i % ncol]
+        grid, terms = energy_terms(g)
+        for name, (label, color, ls, lw) in ENERGY_STYLE.items():
+            if name == "released":
+                _band(ax, terms[name], color, label, ls=ls)
+            else:
+                ax.plot(grid, terms[name].mean, color=color, ls=ls, lw=lw, label=label)
+        rel = terms["released"].mean[-1]
+        res = terms["residual"].mean[-1]
+        ratio = f" ({res / rel:.2%} of released)" if rel else ""
+        ax.set_title(f"{_label(g)}\nresidual at t = {grid[-1]:g}: {res:.3g}{ratio}", fontsize=9)
+        ax.set_ylabel("energy (ρ_w g w³ per unit length)")
+        ax.grid(alpha=0.3)
+        time_axes(ax, units, float(grid[-1]))
+        emax = float(np.nanmax(np.abs(terms["released"].mean))) * units.energy_j_per_m
+        k, u = _si_scale(emax, "J/m")
+        _secondary(ax, "y", units.energy_j_per_m * k, f"energy ({u}) for w = {units.width_m:g} m")
+        ax.legend(fontsize=7, loc="upper left")
+    for j in range(n, nrow * ncol):
+        axes[j // ncol, j % ncol].set_visible(False)
+    fig.suptitle("Energy budget (mean over runs; band: ±1 s.d. of the released energy)", fontsize=10)
+    return fig
+
+
+def fig_impulse_wall(groups: Sequence[Group], units: Units):
+    """Collision impulse rate (a seismic proxy) and the force on the wall vs time."""
+    fig, axes = plt.subplots(2, 1, figsize=(7.5, 7.0), layout="constrained", sharex=True)
+    panels = (
+        ("impulse_rate", "collision impulse rate (ρ_w g w²)", "impulse rate"),
+        ("wall_force", "force on the wall (ρ_w g w²)", "wall force"),
+    )
+    for ax, (name, ylabel, short) in zip(axes, panels):
+        fmax = 0.0
+        for g, color in zip(groups, _colors(len(groups))):
+            ens = g.series(name)
+            _band(ax, ens, color, _label(g))
+            fmax = max(fmax, float(np.nanmax(np.abs(ens.mean))) if ens.mean.size else 0.0)
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        k, u = _si_scale(max(fmax, 1e-300) * units.force_n_per_m, "N/m")
+        _secondary(ax, "y", units.force_n_per_m * k, f"{short} ({u})")
+        ax.legend(fontsize=7, loc="upper right")
+    time_axes(axes[0], units, _tmax(groups), top=True)
+    axes[0].set_xlabel("")
+    time_axes(axes[1], units, _tmax(groups), top=False)
+    fig.suptitle("Collision impulse rate and force on the wall (per unit length of ice front; mean ± 1 s.d.)", fontsize=10)
+    return fig
+
+
+# ---------------------------------------------------------------------------------------
+# Driver
+
+
+def save(fig, out: Path, name: str) -> list[Path]:
+    """Write ``name.png`` and ``name.pdf`` in ``out`` and close the figure."""
+    paths = [out / f"{name}.png", out / f"{name}.pdf"]
+    try:
+        for p in paths:
+            fig.savefig(p, dpi=DPI)
+    except OSError as exc:
+        raise OutputError(f"{p}: cannot write ({exc.strerror or exc})") from None
+    finally:
+        plt.close(fig)
+    return paths
+
+
+def summary_rows(groups: Sequence[Group]) -> list[dict]:
+    """Per group: runs, times of 50% / 90% mean capsized fraction, final leading edge and residual."""
+    rows = []
+    for g in groups:
+        frac = g.series("capsized_fraction")
+        edge = g.series("leading_edge")
+        cross = stats.capsize_times(frac.time, frac.mean)
+        grid, terms = energy_terms(g)
+        rows.append({
+            "group": g.label,
+            "runs": len(g.runs),
+            "seeds": " ".join(str(r.seed) for r in g.runs),
+            "t_end": float(frac.time[-1]),
+            "capsized_fraction_end": float(frac.mean[-1]),
+            "capsized_fraction_end_std": float(frac.std[-1]),
+            "t_50": cross[0.5],
+            "t_90": cross[0.9],
+            "leading_edge_end": float(edge.mean[-1]),
+            "leading_edge_end_std": float(edge.std[-1]),
+            "energy_released_end": float(terms["released"].mean[-1]),
+            "energy_residual_end": float(terms["residual"].mean[-1]),
+        })
+    return rows
+
+
+def write_summary(rows: list[dict], path: Path) -> Path:
+    try:
+        with open(path, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            w.writeheader()
+            for row in rows:
+                w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    return path
+
+
+def plot(paths: Sequence[str | Path], out: str | Path, times: Sequence[float] | None = None, width_m: float = 70.0) -> list[Path]:
+    """Every figure for the given run files into directory ``out``; returns the files written."""
+    if not (math.isfinite(width_m) and width_m > 0):
+        raise SceneError(f"--width-m = {width_m:g}: must be a positive number of metres")
+    units = Units(width_m=width_m)
+    runs = [load_run(p) for p in paths]
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"--out {str(out)!r}: cannot create directory ({exc.strerror or exc})") from None
+    fig2_times, fig5_times = default_times(last_snapshot_time(runs))
+    if times is not None:
+        check_times(times, runs)
+        fig2_times = fig5_times = list(times)
+    fig2_times, fig5_times = snap_times(fig2_times, runs), snap_times(fig5_times, runs)
+    groups = make_groups(runs)
+    written: list[Path] = []
+    written += save(fig_snapshots(groups, units, fig2_times), out, "fig2_snapshots")
+    written += save(fig_capsized_fraction(groups, units), out, "fig3_capsized_fraction")
+    written += save(fig_leading_edge(groups, units), out, "fig4_leading_edge")
+    written += save(fig_capsized_by_position(groups, units, fig5_times), out, "fig5_capsized_by_position")
+    written += save(fig_energy_budget(groups, units), out, "energy_budget")
+    if all("impulse_rate" in r.diag and "wall_force" in r.diag for r in runs):
+        written += save(fig_impulse_wall(groups, units), out, "impulse_rate_wall_force")
+    spreads = {r.flat.get("shelf.thickness_std") for r in runs}
+    if len(spreads) > 1:
+        by_spread = make_groups(runs, keys=["shelf.thickness_std"])
+        title = "Capsized fraction by thickness spread (shelf.thickness_std; mean ± 1 s.d.)"
+        written += save(fig_capsized_fraction(by_spread, units, title=title), out, "capsized_fraction_by_thickness_std")
+    written.append(write_summary(summary_rows(groups), out / "summary.csv"))
+    return written
+
+
+def main(args) -> int:
+    """Entry point of ``melange-ti plot``."""
+    written = plot(args.runs, args.out, times=parse_times(args.times), width_m=args.width_m)
+    out = Path(args.out)
+    with open(out / "summary.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    for row in rows:
+        print(f"{row['group']}: {row['runs']} run(s); capsized {float(row['capsized_fraction_end']):.3f} at t = {row['t_end']}; "
+              f"50% at t = {row['t_50']}, 90% at t = {row['t_90']}; leading edge {float(row['leading_edge_end']):.3g} widths")
+    print(f"wrote {len(written)} files to {out}")
+    return 0

@@ -1,0 +1,403 @@
+"""``melange-ti render``: frames (PNG) and an MP4 movie of a run, headless (matplotlib Agg).
+
+Each iceberg is drawn as its rectangle coloured by the capsize angle ``phi`` in
+``[0, pi/2]`` (SPEC section 1; capsized from ``pi/4``), optionally with the collision discs
+(``--discs``), over the sea (the water line at ``physics.water_level``) and the wall.
+The movie is encoded by the ``ffmpeg`` binary shipped in the ``imageio-ffmpeg`` wheel.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import EllipseCollection, PolyCollection  # noqa: E402
+from matplotlib.colors import Normalize  # noqa: E402
+
+from .. import diagnostics as diag  # noqa: E402
+from ..io.hdf5 import OutputError, read_run  # noqa: E402
+from ..scene import Scene, SceneError, disc_radius, loads  # noqa: E402
+
+G_SI = 9.81  # m s^-2
+CMAP = "plasma"
+PHI_NORM = Normalize(0.0, 0.5 * math.pi)
+WATER = "#cfe3f3"
+WATER_LINE = "#1f5f99"
+WALL = "0.35"
+ZOOM_SPAN = 60.0  # widths shown around the leading edge when the whole run is too wide
+WIDE = 80.0  # widths beyond which a frame gets a leading-edge zoom panel
+
+
+# ---------------------------------------------------------------------------------------
+# Geometry (numpy; mirrors melange_ti.physics.contacts and melange_ti.scene)
+
+
+def rect_corners(x, z, theta, width, thickness) -> np.ndarray:
+    """World corners of each rectangle, counter-clockwise from (+u, -v): shape (N, 4, 2)."""
+    x, z, theta, width, thickness = (np.asarray(a, dtype=float) for a in (x, z, theta, width, thickness))
+    c, s = np.cos(theta), np.sin(theta)
+    hu, hv = 0.5 * width, 0.5 * thickness
+    su = np.array([1.0, 1.0, -1.0, -1.0])
+    sv = np.array([-1.0, 1.0, 1.0, -1.0])
+    u = su[None, :] * hu[:, None]
+    v = sv[None, :] * hv[:, None]
+    out = np.empty((x.shape[0], 4, 2))
+    out[:, :, 0] = x[:, None] + u * c[:, None] - v * s[:, None]
+    out[:, :, 1] = z[:, None] + u * s[:, None] + v * c[:, None]
+    return out
+
+
+def disc_local(width, thickness, discs: int) -> tuple[np.ndarray, np.ndarray]:
+    """Body-frame disc centres (N, discs, 2) and radii (N,), as ``contacts.disc_local``.
+
+    ``k = discs/4`` discs per face; face ``f`` starts at a corner of the rectangle inset by
+    the radius and takes ``k`` equal steps towards the next inset corner.
+    """
+    width = np.atleast_1d(np.asarray(width, dtype=float))
+    thickness = np.atleast_1d(np.asarray(thickness, dtype=float))
+    r = np.asarray(disc_radius(width, thickness, discs), dtype=float)
+    k = discs // 4
+    a = np.arange(discs)
+    f = a // k
+    t = (a % k) / k
+    iu = (0.5 * width - r)[:, None]
+    iv = (0.5 * thickness - r)[:, None]
+    u = np.select([f == 0, f == 1, f == 2], [iu + 0 * t, iu - 2 * iu * t, -iu + 0 * t], -iu + 2 * iu * t)
+    v = np.select([f == 0, f == 1, f == 2], [-iv + 2 * iv * t, iv + 0 * t, iv - 2 * iv * t], -iv + 0 * t)
+    return np.stack([u, v], axis=-1), r
+
+
+def disc_centres(x, z, theta, width, thickness, discs: int) -> tuple[np.ndarray, np.ndarray]:
+    """World disc centres (N, discs, 2) and radii (N,)."""
+    local, r = disc_local(width, thickness, discs)
+    theta = np.asarray(theta, dtype=float)[:, None]
+    c, s = np.cos(theta), np.sin(theta)
+    u, v = local[..., 0], local[..., 1]
+    out = np.empty_like(local)
+    out[..., 0] = np.asarray(x, dtype=float)[:, None] + u * c - v * s
+    out[..., 1] = np.asarray(z, dtype=float)[:, None] + u * s + v * c
+    return out, r
+
+
+# ---------------------------------------------------------------------------------------
+# Drawing
+
+
+class IcebergArtist:
+    """Rectangles (coloured by capsize angle) and optional disc outlines on one axes.
+
+    Created once and updated per frame with :meth:`update`, so a movie does not rebuild its
+    artists.
+    """
+
+    def __init__(self, ax, width, thickness, discs: int | None = None, cmap: str = CMAP):
+        self.ax = ax
+        self.width = np.asarray(width, dtype=float)
+        self.thickness = np.asarray(thickness, dtype=float)
+        self.discs = discs
+        n = self.width.shape[0]
+        self.rects = PolyCollection(
+            np.zeros((n, 4, 2)), cmap=cmap, norm=PHI_NORM, edgecolors="k", linewidths=0.6, zorder=3
+        )
+        self.rects.set_array(np.zeros(n))
+        ax.add_collection(self.rects)
+        self.circles = None
+        if discs:
+            _, r = disc_local(self.width, self.thickness, discs)
+            d = np.repeat(2.0 * r, discs)
+            self.circles = EllipseCollection(
+                d, d, np.zeros_like(d), units="xy", offsets=np.zeros((d.size, 2)), offset_transform=ax.transData,
+                facecolors="none", edgecolors="w", linewidths=0.5, alpha=0.9, zorder=4,
+            )
+            ax.add_collection(self.circles)
+
+    def update(self, x, z, theta) -> None:
+        self.rects.set_verts(rect_corners(x, z, theta, self.width, self.thickness))
+        self.rects.set_array(diag.capsize_angle(np.asarray(theta, dtype=float)))
+        if self.circles is not None:
+            centres, _ = disc_centres(x, z, theta, self.width, self.thickness, self.discs)
+            self.circles.set_offsets(centres.reshape(-1, 2))
+
+
+def draw_sea(ax, scene: Scene, zlim: tuple[float, float]) -> None:
+    """Water below the water line, the line itself and (with the ``wall`` effect) the wall."""
+    wl = scene.physics.water_level
+    ax.axhspan(zlim[0] - 1e3, wl, color=WATER, zorder=0, lw=0)
+    ax.axhline(wl, color=WATER_LINE, lw=1.0, zorder=2)
+    if scene.effects.wall:
+        ax.axvline(scene.physics.wall_x, color=WALL, lw=3.0, zorder=5)
+
+
+def phi_colorbar(fig, mappable, ax, **kw):
+    """Colorbar of the capsize angle with ticks at multiples of pi/8 and the pi/4 threshold."""
+    cb = fig.colorbar(mappable, ax=ax, **kw)
+    ticks = np.arange(5) * math.pi / 8
+    cb.set_ticks(ticks)
+    cb.set_ticklabels(["0", "π/8", "π/4", "3π/8", "π/2"])
+    cb.set_label("capsize angle φ")
+    cb.ax.axhline(math.pi / 4, color="w", lw=1.0) if cb.orientation == "vertical" else cb.ax.axvline(math.pi / 4, color="w")
+    return cb
+
+
+def extent(corners: np.ndarray) -> tuple[float, float, float, float]:
+    """``(xmin, xmax, zmin, zmax)`` of corner arrays of any leading shape (..., 2)."""
+    c = corners.reshape(-1, 2)
+    return float(c[:, 0].min()), float(c[:, 0].max()), float(c[:, 1].min()), float(c[:, 1].max())
+
+
+# ---------------------------------------------------------------------------------------
+# Loading
+
+
+def load_run(path: str | Path) -> tuple[dict, Scene]:
+    """A run file and its scene; one-line errors for anything that cannot be rendered."""
+    run = read_run(path)
+    text = run["attrs"].get("scene_toml")
+    if not isinstance(text, str):
+        raise OutputError(f"{path}: not a melange_ti run file (no scene_toml attribute)")
+    try:
+        scene = loads(text)
+    except SceneError as exc:
+        raise SceneError(f"{path}: stored scene: {exc}") from None
+    snaps = run["snapshots"]
+    if "time" not in snaps or len(snaps["time"]) == 0:
+        raise OutputError(f"{path}: no snapshots yet (nothing to draw)")
+    for key in ("x", "z", "theta"):
+        if key not in snaps:
+            raise OutputError(f"{path}: not a melange_ti run file (no /snapshots/{key})")
+    for key in ("width", "thickness"):
+        if key not in run["icebergs"]:
+            raise OutputError(f"{path}: not a melange_ti run file (no /icebergs/{key})")
+    return run, scene
+
+
+# ---------------------------------------------------------------------------------------
+# Frames and movie
+
+
+def _time_text(t: float, width_m: float) -> str:
+    seconds = t * math.sqrt(width_m / G_SI)
+    if seconds >= 7200:
+        phys = f"{seconds / 3600:.2f} h"
+    elif seconds >= 120:
+        phys = f"{seconds / 60:.1f} min"
+    else:
+        phys = f"{seconds:.0f} s"
+    return f"t = {t:g} √(w/g)  ({phys} for w = {width_m:g} m)"
+
+
+class FrameMaker:
+    """One figure, reused for every frame of a run; :meth:`draw` returns an RGB array."""
+
+    def __init__(self, run: dict, scene: Scene, discs: bool, frames: np.ndarray, width_m: float = 70.0, px_width: int = 1280):
+        self.run = run
+        self.scene = scene
+        self.width_m = width_m
+        snaps = run["snapshots"]
+        width = run["icebergs"]["width"]
+        thickness = run["icebergs"]["thickness"]
+        corners = rect_corners(
+            snaps["x"][frames].ravel(), snaps["z"][frames].ravel(), snaps["theta"][frames].ravel(),
+            np.tile(width, len(frames)), np.tile(thickness, len(frames)),
+        )
+        xmin, xmax, zmin, zmax = extent(corners)
+        if scene.effects.wall:
+            xmin = min(xmin, scene.physics.wall_x)
+        pad = 0.5
+        self.xlim = (xmin - pad, xmax + pad)
+        self.zlim = (min(zmin, scene.physics.water_level) - pad, max(zmax, scene.physics.water_level) + pad)
+        span = self.xlim[1] - self.xlim[0]
+        height = self.zlim[1] - self.zlim[0]
+        self.zoom = span > WIDE
+        dpi = 100
+        w_in = px_width / dpi
+        if self.zoom:
+            zoom_h = w_in * 0.8 * height / ZOOM_SPAN
+            h_in = 1.2 + 1.6 + zoom_h
+        else:
+            h_in = 1.2 + w_in * 0.8 * height / span
+        h_in = min(max(h_in, 2.4), 9.0)
+        h_px = int(math.ceil(h_in * dpi / 16.0) * 16)  # even sizes for yuv420p / macro blocks
+        self.fig = plt.figure(figsize=(w_in, h_px / dpi), dpi=dpi)
+        ndisc = scene.contacts.discs if discs else None
+        if self.zoom:
+            gs = self.fig.add_gridspec(2, 1, height_ratios=[1.0, max(zoom_h / 1.6, 0.6)], hspace=0.45)
+            self.ax = self.fig.add_subplot(gs[0])
+            self.axz = self.fig.add_subplot(gs[1])
+            axes = (self.ax, self.axz)
+        else:
+            self.ax = self.fig.add_subplot(1, 1, 1)
+            self.axz = None
+            axes = (self.ax,)
+        self.artists = []
+        for k, ax in enumerate(axes):
+            draw_sea(ax, scene, self.zlim)
+            ax.set_ylim(*self.zlim)
+            ax.set_ylabel("z (widths)")
+            self.artists.append(IcebergArtist(ax, width, thickness, ndisc if (k == len(axes) - 1) else None))
+        self.ax.set_xlim(*self.xlim)
+        if self.zoom:
+            self.ax.set_aspect("auto")
+            self.axz.set_aspect("equal", adjustable="datalim")
+            self.axz.set_xlabel("x (widths)")
+            self.ax.set_title("whole run (stretched)", fontsize=9, loc="left")
+        else:
+            self.ax.set_aspect("equal", adjustable="datalim")
+            self.ax.set_xlabel("x (widths)")
+        phi_colorbar(self.fig, self.artists[0].rects, list(axes), fraction=0.03, pad=0.02)
+        self.title = self.fig.suptitle("", fontsize=10)
+
+    def draw(self, k: int) -> np.ndarray:
+        snaps = self.run["snapshots"]
+        x, z, theta = snaps["x"][k], snaps["z"][k], snaps["theta"][k]
+        for art in self.artists:
+            art.update(x, z, theta)
+        if self.axz is not None:
+            front = float(np.max(x)) + 2.0
+            self.axz.set_xlim(front - ZOOM_SPAN, front)
+            self.axz.set_ylim(*self.zlim)
+            self.axz.set_title("leading edge", fontsize=9, loc="left")
+        frac = diag.capsized_fraction(theta)
+        self.title.set_text(f"{_time_text(float(snaps['time'][k]), self.width_m)}    capsized {100 * frac:.0f}%")
+        self.fig.canvas.draw()
+        return np.asarray(self.fig.canvas.buffer_rgba())[..., :3].copy()
+
+    def close(self) -> None:
+        plt.close(self.fig)
+
+
+def frame_indices(n: int, every: int) -> np.ndarray:
+    """Every ``every``-th snapshot, always including the last one."""
+    idx = list(range(0, n, every))
+    if idx[-1] != n - 1:
+        idx.append(n - 1)
+    return np.asarray(idx)
+
+
+def render(path: str | Path, out: str | Path, discs: bool = False, every: int = 1, fps: int = 20, width_m: float = 70.0) -> list[Path]:
+    """Render a run to ``out``: an ``.mp4`` file, or a directory of ``frame_00000.png`` ...
+
+    Returns the files written.
+    """
+    if every < 1:
+        raise SceneError(f"--every = {every}: must be >= 1")
+    if fps < 1:
+        raise SceneError(f"--fps = {fps}: must be >= 1")
+    out = Path(out)
+    movie = out.suffix.lower() == ".mp4" and not out.is_dir()
+    if not movie and out.suffix and not out.is_dir():
+        raise SceneError(f"--out {str(out)!r}: give FILE.mp4 or a directory for PNG frames")
+    run, scene = load_run(path)
+    frames = frame_indices(len(run["snapshots"]["time"]), every)
+    writer = None
+    if movie:
+        writer = _movie_writer(out, fps)
+    else:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OutputError(f"--out {str(out)!r}: cannot create directory ({exc.strerror or exc})") from None
+    maker = FrameMaker(run, scene, discs, frames, width_m=width_m)
+    written: list[Path] = []
+    try:
+        for n, k in enumerate(frames):
+            rgb = maker.draw(int(k))
+            if writer is not None:
+                writer.write(rgb)
+            else:
+                target = out / f"frame_{n:05d}.png"
+                try:
+                    plt.imsave(target, rgb)
+                except OSError as exc:
+                    raise OutputError(f"{target}: cannot write ({exc.strerror or exc})") from None
+                written.append(target)
+        if writer is not None:
+            writer.close()
+            written.append(out)
+    finally:
+        maker.close()
+        if writer is not None:
+            writer.abort()
+    return written
+
+
+class _Movie:
+    """Feeds RGB frames to the ffmpeg binary of ``imageio-ffmpeg`` (H.264, yuv420p)."""
+
+    def __init__(self, path: Path, fps: int, exe: str):
+        self.path = path
+        self.fps = fps
+        self.exe = exe
+        self.gen = None
+        self.done = False
+
+    def write(self, rgb: np.ndarray) -> None:
+        import imageio_ffmpeg
+
+        if self.gen is None:
+            h, w = rgb.shape[:2]
+            self.gen = imageio_ffmpeg.write_frames(
+                str(self.path), (w, h), fps=self.fps, codec="libx264", pix_fmt_in="rgb24", pix_fmt_out="yuv420p",
+                quality=7, macro_block_size=16, ffmpeg_log_level="error",
+            )
+            self.gen.send(None)
+        try:
+            self.gen.send(np.ascontiguousarray(rgb))
+        except (OSError, RuntimeError) as exc:
+            raise OutputError(f"{self.path}: ffmpeg failed ({str(exc).splitlines()[0] if str(exc) else exc})") from None
+
+    def close(self) -> None:
+        if self.gen is not None:
+            try:
+                self.gen.close()
+            except (OSError, RuntimeError) as exc:
+                raise OutputError(f"{self.path}: ffmpeg failed ({str(exc).splitlines()[0] if str(exc) else exc})") from None
+        self.done = True
+
+    def abort(self) -> None:
+        if self.done:
+            return
+        if self.gen is not None:
+            try:
+                self.gen.close()
+            except Exception:  # already failing: the first error is the one reported
+                pass
+        self.path.unlink(missing_ok=True)  # a half-written movie is no movie
+
+
+def _movie_writer(out: Path, fps: int) -> _Movie:
+    try:
+        import imageio_ffmpeg
+    except ImportError:
+        raise OutputError("MP4 output needs the imageio-ffmpeg package (pip install imageio-ffmpeg); "
+                          "or give a directory for PNG frames") from None
+    try:
+        exe = imageio_ffmpeg.get_ffmpeg_exe()
+    except RuntimeError as exc:
+        raise OutputError(f"no ffmpeg binary for MP4 output ({str(exc).splitlines()[0]})") from None
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise OutputError(f"--out {str(out)!r}: directory {str(parent)!r} does not exist")
+    try:
+        with open(out, "wb"):
+            pass
+    except OSError as exc:
+        raise OutputError(f"--out {str(out)!r}: cannot write ({exc.strerror or exc})") from None
+    return _Movie(out, fps, exe)
+
+
+def main(args) -> int:
+    """Entry point of ``melange-ti render``."""
+    written = render(args.run, args.out, discs=args.discs, every=args.every, fps=args.fps,
+                     width_m=getattr(args, "width_m", 70.0))
+    if len(written) == 1:
+        print(f"wrote {written[0]}")
+    else:
+        print(f"wrote {len(written)} frames to {Path(args.out)}")
+    return 0

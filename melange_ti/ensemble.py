@@ -1,0 +1,525 @@
+"""``melange-ti ensemble``: seeds x swept parameter values on a Dask cluster (SPEC section 4).
+
+Plan, validate, then run:
+
+1. ``--set KEY=V1,V2,...`` lists are swept (Cartesian product over all listed keys, in the
+   order given), a value without a top-level comma is a plain override; seeds are 1..K.
+   Every run's scene (overrides plus ``time.seed``) is validated before anything starts, and
+   existing files in DIR are classified: finished (``attrs["complete"]``) -> skipped;
+   unfinished with a checkpoint -> resumed; unfinished without one (or unreadable) ->
+   overwritten. A file holding a *different* scene's results is refused up front.
+   Input problems raise :class:`~melange_ti.scene.SceneError` or
+   :class:`~melange_ti.simulation.RunError` (one line, exit status 2), and no file is written.
+2. ``DIR/ensemble.json`` lists every run (file, seed, overrides); it is rewritten at the
+   end with each run's status.
+3. The runs go to Dask workers: a ``LocalCluster`` of spawned single-threaded worker
+   processes, or an existing cluster (``--scheduler``). A task receives the scene *text*,
+   the overrides and the absolute output path (remote workers need DIR on a shared file
+   system, but not the scene file), initialises Taichi in its own process with one thread
+   and runs :class:`~melange_ti.simulation.Simulation`. Output is bit-identical to
+   ``melange-ti run`` of the same scene and seed (results do not depend on thread count).
+4. A failed run does not stop the others: each failure is printed as one line at the end
+   and the exit status is 3; otherwise 0.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import itertools
+import json
+import os
+import re
+import sys
+import threading
+import time as wallclock
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from . import __version__
+from . import scene as scn
+
+MANIFEST = "ensemble.json"
+EXIT_OK, EXIT_FAILED = 0, 3
+SEED_KEY = "time.seed"
+
+# Every Model adds one Taichi SNode tree, and a process crashes (SIGSEGV) at the 512th
+# (FACTS.md). A worker may run many tasks, so it starts a fresh Taichi runtime after this
+# many models; nothing from an earlier task is alive by then.
+MODELS_PER_RUNTIME = 256
+
+
+# ---------------------------------------------------------------------------- planning
+@dataclass(frozen=True)
+class Axis:
+    """One ``--set`` key and its values (one value: a plain override)."""
+
+    key: str
+    values: tuple
+    texts: tuple[str, ...]
+
+    @property
+    def swept(self) -> bool:
+        return len(self.values) > 1
+
+
+@dataclass
+class RunSpec:
+    """One run of the ensemble."""
+
+    file: str  # file name inside DIR
+    seed: int
+    overrides: list[tuple[str, Any]]  # every --set override, in order (without time.seed)
+    swept: list[tuple[str, Any]]  # the swept subset (names the file)
+    action: str = "fresh"  # fresh | overwrite | resume | skip
+    status: str = "pending"  # pending | complete | skipped | failed
+    error: str | None = None
+    summary: dict = field(default_factory=dict)
+
+    def describe(self) -> str:
+        parts = [f"seed {self.seed}"] + [f"{k}={_json_value(v)}" for k, v in self.swept]
+        return f"{self.file} ({', '.join(parts)})"
+
+
+def split_values(text: str) -> list[str]:
+    """Split ``text`` at commas outside brackets, braces and quotes.
+
+    ``"12,28,60"`` -> three values; ``'["gravity", "drag"]'`` and ``'"a,b"'`` -> one value;
+    ``'["gravity"],["gravity","drag"]'`` -> two list values.
+    """
+    parts, depth, quote, start, i = [], 0, None, 0, 0
+    while i < len(text):
+        ch = text[i]
+        if quote is not None:
+            if ch == "\\" and quote == '"':
+                i += 1
+            elif ch == quote:
+                quote = None
+        elif ch in "\"'":
+            quote = ch
+        elif ch in "[{":
+            depth += 1
+        elif ch in "]}":
+            depth = max(0, depth - 1)
+        elif ch == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+        i += 1
+    parts.append(text[start:])
+    return [p.strip() for p in parts]
+
+
+def parse_sweep(items: list[str] | None) -> list[Axis]:
+    """``["contacts.discs=12,28", "time.dt=0.005"]`` -> one :class:`Axis` per key."""
+    axes: list[Axis] = []
+    seen: set[str] = set()
+    for item in items or []:
+        if "=" not in item:
+            raise scn.SceneError(f"--set {item!r}: expected SECTION.KEY=VALUE or SECTION.KEY=V1,V2,...")
+        key, text = item.split("=", 1)
+        key = key.strip()
+        if key == SEED_KEY:
+            raise scn.SceneError(f"--set {item!r}: {SEED_KEY} is set by --seeds (runs use seeds 1..K)")
+        if key in seen:
+            raise scn.SceneError(f"--set {item!r}: {key} is given more than once (list its values in one --set)")
+        seen.add(key)
+        texts = split_values(text.strip())
+        if len(texts) > 1 and any(t == "" for t in texts):
+            raise scn.SceneError(f"--set {item!r}: empty value in the list")
+        values = tuple(scn.parse_value(t) for t in texts)
+        for a in range(len(values)):
+            for b in range(a):
+                if _same(values[a], values[b]):
+                    raise scn.SceneError(f"--set {item!r}: value {texts[a]} is listed twice")
+        axes.append(Axis(key, values, tuple(texts)))
+    return axes
+
+
+def _same(a: Any, b: Any) -> bool:
+    return type(a) is type(b) and a == b
+
+
+def _json_value(v: Any) -> str:
+    return json.dumps(v, default=str)
+
+
+def _token(v: Any) -> str:
+    """A value as a file-name fragment (before sanitising)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, list):
+        return "+".join(_token(x) for x in v) or "empty"
+    return str(v)
+
+
+def _sanitize(text: str, limit: int = 40) -> str:
+    """Only ``[A-Za-z0-9.+-]``: no path separators, and ``_``/``=`` stay unambiguous."""
+    out = re.sub(r"[^A-Za-z0-9.+-]+", "-", text).strip("-.")
+    if not out:
+        out = "x"
+    if len(out) > limit:
+        out = out[: limit - 7] + "~" + hashlib.sha1(text.encode()).hexdigest()[:6]
+    return out
+
+
+def _labels(axes: list[Axis]) -> dict[str, tuple[str, list[str]]]:
+    """For each swept key: its label in file names and one token per value (unique)."""
+    swept = [a for a in axes if a.swept]
+    leaves = [a.key.split(".")[-1] for a in swept]
+    out = {}
+    for axis, leaf in zip(swept, leaves):
+        label = _sanitize(leaf if leaves.count(leaf) == 1 else axis.key)
+        tokens = [_sanitize(_token(v)) for v in axis.values]
+        if len(set(tokens)) < len(tokens):  # distinct values, same sanitised text
+            tokens = [f"{t}~{hashlib.sha1(_json_value(v).encode()).hexdigest()[:6]}" for t, v in zip(tokens, axis.values)]
+        out[axis.key] = (label, tokens)
+    return out
+
+
+def plan(axes: list[Axis], seeds: int) -> list[RunSpec]:
+    """Every (swept values, seed) combination, swept keys outermost in --set order."""
+    labels = _labels(axes)
+    choices = [list(enumerate(a.values)) for a in axes]
+    runs = []
+    for combo in itertools.product(*choices):
+        overrides = [(a.key, v) for a, (_, v) in zip(axes, combo)]
+        swept = [(a.key, v) for a, (_, v) in zip(axes, combo) if a.swept]
+        stem = "_".join(f"{labels[a.key][0]}={labels[a.key][1][k]}" for a, (k, _) in zip(axes, combo) if a.swept)
+        for seed in range(1, seeds + 1):
+            name = f"{stem}_seed{seed}.h5" if stem else f"seed{seed}.h5"
+            runs.append(RunSpec(file=name, seed=seed, overrides=overrides, swept=swept))
+    return runs
+
+
+def _scene_text(path: str | None) -> str:
+    if path is None:
+        return scn.bundled_scene_text("paper")
+    p = Path(path)
+    try:
+        return p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise scn.SceneError(f"scene file {str(p)!r}: not found") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise scn.SceneError(f"scene file {str(p)!r}: cannot be read ({exc.__class__.__name__})") from None
+
+
+def validate(text: str, runs: list[RunSpec], label: str | None) -> dict[str, str]:
+    """Build every run's scene (raises SceneError naming the run); returns file -> resolved TOML."""
+    resolved = {}
+    for r in runs:
+        try:
+            sc = scn.loads(text, [*r.overrides, (SEED_KEY, r.seed)])
+        except scn.SceneError as exc:
+            where = f"{label}: " if label else ""
+            combo = ", ".join(f"{k}={_json_value(v)}" for k, v in r.swept)
+            raise scn.SceneError(f"{where}{exc}" + (f" (in the run with {combo})" if combo else "")) from None
+        resolved[r.file] = sc.to_toml()
+    first: dict[tuple[str, int], RunSpec] = {}
+    for r in runs:  # e.g. 1 and 1.0 for a float key: two files of one scene
+        twin = first.setdefault((resolved[r.file], r.seed), r)
+        if twin is not r:
+            raise scn.SceneError(f"--set: runs {twin.describe()} and {r.describe()} are the same scene; list each value once")
+    return resolved
+
+
+def _read_state(path: Path) -> tuple[str | None, bool] | None:
+    """``(scene_toml, complete)`` of an existing run file, or None if it is not readable."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r", libver="latest", swmr=True) as f:
+            toml = f.attrs.get("scene_toml")
+            if isinstance(toml, bytes):
+                toml = toml.decode()
+            return (None if toml is None else str(toml)), bool(f.attrs.get("complete", False))
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def classify(out_dir: Path, runs: list[RunSpec], resolved: dict[str, str]) -> None:
+    """Decide each run's action from what DIR holds; refuse files of a different scene."""
+    from .io.checkpoint import checkpoint_path
+    from .simulation import RunError
+
+    for r in runs:
+        path = out_dir / r.file
+        ckpt = checkpoint_path(path).exists()
+        if not path.exists() and not path.is_symlink():
+            r.action = "fresh"
+            continue
+        state = _read_state(path)
+        if state is None:  # unreadable (or a directory): cannot be resumed
+            r.action = "overwrite"
+            continue
+        toml, complete = state
+        if (complete or ckpt) and toml != resolved[r.file]:
+            raise RunError(
+                f"{path}: holds a run of a different scene (or --set values); remove it or use another --out"
+            )
+        r.action = "skip" if complete else ("resume" if ckpt else "overwrite")
+
+
+def _last_diagnostics(path: Path) -> dict:
+    """Final time, capsized fraction and leading edge recorded in a finished file."""
+    import h5py
+
+    from .io.hdf5 import consistent_length
+
+    try:
+        with h5py.File(path, "r", libver="latest", swmr=True) as f:
+            g = f["diagnostics"]
+            n = consistent_length(g)
+            if n == 0:
+                return {}
+            return {k: float(g[k][n - 1]) for k in ("time", "capsized_fraction", "leading_edge")}
+    except (OSError, KeyError, ValueError):
+        return {}
+
+
+def write_manifest(out_dir: Path, runs: list[RunSpec], axes: list[Axis], scene_path: str | None, seeds: int, name: str) -> None:
+    doc = {
+        "melange_ti_version": __version__,
+        "scene": None if scene_path is None else str(Path(scene_path).resolve()),
+        "scene_name": name,
+        "seeds": list(range(1, seeds + 1)),
+        "sweep": {a.key: list(a.values) for a in axes if a.swept},
+        "overrides": {a.key: a.values[0] for a in axes if not a.swept},
+        "runs": [
+            {
+                "file": r.file,
+                "seed": r.seed,
+                "overrides": dict(r.overrides),
+                "status": r.status,
+                **({"error": r.error} if r.error else {}),
+                **({"summary": r.summary} if r.summary else {}),
+            }
+            for r in runs
+        ],
+    }
+    tmp = out_dir / (MANIFEST + ".tmp")
+    tmp.write_text(json.dumps(doc, indent=2, default=str) + "\n", encoding="utf-8")
+    os.replace(tmp, out_dir / MANIFEST)
+
+
+# ---------------------------------------------------------------------------- worker side
+_PROCESS_LOCK = threading.Lock()  # one Taichi runtime per process: one run at a time
+_proc: dict[str, Any] = {"key": None, "models": 0}
+
+
+def _ensure_taichi(precision: str) -> None:
+    """Taichi for this worker process: CPU, one thread, the scene's precision."""
+    from . import runtime
+
+    key = ("cpu", 1, precision)
+    if _proc["key"] == key and _proc["models"] >= MODELS_PER_RUNTIME:
+        runtime._current = None  # force a fresh runtime (frees the SNode trees of past runs)
+    if _proc["key"] != key or runtime._current is None:
+        with contextlib.redirect_stdout(io.StringIO()):  # "[Taichi] Starting on arch=x64"
+            runtime.init("cpu", threads=1, precision=precision)
+        _proc.update(key=key, models=0)
+    _proc["models"] += 1
+
+
+def run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, action: str) -> dict:
+    """Dask task: one run into ``out`` (``action``: fresh | overwrite | resume)."""
+    with _PROCESS_LOCK:
+        with contextlib.redirect_stdout(io.StringIO()):  # Taichi's banner on first import
+            from .io.checkpoint import checkpoint_path
+            from .simulation import Simulation
+        sc = scn.loads(text, [*overrides, (SEED_KEY, seed)])
+        _ensure_taichi(sc.precision)
+        path = Path(out)
+        if action == "overwrite":
+            stale = checkpoint_path(path)
+            if stale.exists():  # never resume later from another file's checkpoint
+                stale.unlink()
+        sim = Simulation(sc, path, overwrite=action == "overwrite", resume=action == "resume", arch="cpu", progress=False)
+        s = sim.run()
+        return {
+            "time": s.time,
+            "steps": s.steps,
+            "wall_seconds": s.wall_seconds,
+            "steps_per_second": s.steps_per_second,
+            "capsized_fraction": s.capsized_fraction,
+            "leading_edge": s.leading_edge,
+            "energy_released": s.energy_released,
+            "dissipated": s.dissipated,
+            "energy_residual": s.energy_residual,
+            "resumed": action == "resume",
+            "worker_pid": os.getpid(),
+        }
+
+
+# ---------------------------------------------------------------------------- client side
+def _error_line(exc: BaseException) -> str:
+    from .io.hdf5 import OutputError
+    from .model import ContactOverflow
+    from .simulation import NumericalError, RunError
+
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+    if isinstance(exc, (scn.SceneError, RunError, NumericalError, ContactOverflow, OutputError)):
+        return text or exc.__class__.__name__
+    return f"{exc.__class__.__name__}: {text}" if text else exc.__class__.__name__
+
+
+@contextlib.contextmanager
+def _cluster(scheduler: str | None, workers: int):
+    """A connected Client: to ``scheduler``, or to a LocalCluster of spawned processes."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    from .simulation import RunError
+
+    # Read whenever a nanny (re)starts a worker process, so it must hold for the whole
+    # lifetime: a forked child of a process that ran ti.init hangs (FACTS.md).
+    with dask.config.set({"distributed.worker.multiprocessing-method": "spawn"}):
+        assert dask.config.get("distributed.worker.multiprocessing-method") == "spawn"
+        if scheduler:
+            try:
+                client = Client(scheduler)
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise RunError(f"--scheduler {scheduler}: cannot connect ({_error_line(exc)})") from None
+            try:
+                yield client, f"scheduler {scheduler}"
+            finally:
+                client.close()
+            return
+        cluster = LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            env={"ENABLE_TAICHI_HEADER_PRINT": "0"},
+        )
+        try:
+            client = Client(cluster)
+            try:
+                yield client, f"{workers} local worker{'s' if workers != 1 else ''}"
+            finally:
+                client.close()
+        finally:
+            cluster.close()
+
+
+def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec]) -> None:
+    from distributed import as_completed
+
+    tag = uuid.uuid4().hex[:8]
+    futures = {}
+    for r in todo:
+        fut = client.submit(
+            run_one, text, r.overrides, r.seed, str(out_dir / r.file), r.action, key=f"melange-ti-{r.file}-{tag}", pure=False, retries=0
+        )
+        futures[fut] = r
+    bar = None
+    if sys.stderr.isatty():
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(todo), unit="run", dynamic_ncols=True, file=sys.stderr)
+    done = 0
+    failed = 0
+    try:
+        for fut in as_completed(futures):
+            r = futures[fut]
+            done += 1
+            if fut.status == "finished":
+                r.status, r.summary = "complete", fut.result()
+                msg = f"[{done}/{len(todo)}] {r.file}: done in {r.summary['wall_seconds']:.1f} s"
+            else:
+                try:
+                    exc = fut.exception()
+                except BaseException as cancelled:  # e.g. CancelledError when the cluster went away
+                    exc = cancelled
+                r.status, r.error = "failed", _error_line(exc)
+                failed += 1
+                msg = f"[{done}/{len(todo)}] {r.file}: FAILED ({r.error})"
+            if bar is not None:
+                bar.set_postfix(failed=failed)
+                bar.update(1)
+                bar.write(msg, file=sys.stderr)
+            else:
+                print(msg, file=sys.stderr, flush=True)
+    finally:
+        if bar is not None:
+            bar.close()
+        for fut in futures:
+            fut.cancel()
+
+
+def _fmt(v: Any, spec: str) -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def report(runs: list[RunSpec], out_dir: Path, where: str, wall: float) -> None:
+    ran = sum(r.status == "complete" for r in runs)
+    skipped = sum(r.status == "skipped" for r in runs)
+    failed = [r for r in runs if r.status == "failed"]
+    width = max(len(r.file) for r in runs)
+    print(f"ensemble: {len(runs)} runs in {out_dir}: {ran} ran, {skipped} already complete, {len(failed)} failed")
+    for r in runs:
+        s = r.summary
+        if r.status == "failed":
+            tail = "FAILED"
+        else:
+            note = "already complete" if r.status == "skipped" else ("resumed, " if s.get("resumed") else "") + f"{s.get('wall_seconds', 0):.1f} s"
+            tail = (
+                f"t = {_fmt(s.get('time'), 'g')}, capsized fraction {_fmt(s.get('capsized_fraction'), '.3f')}, "
+                f"leading edge {_fmt(s.get('leading_edge'), '.3f')} widths ({note})"
+            )
+        print(f"  {r.file:<{width}}  {tail}")
+    print(f"total wall time {wall:.1f} s ({where})")
+    for r in failed:
+        print(f"melange-ti: error: run {r.describe()} failed: {r.error}", file=sys.stderr)
+
+
+def main(args) -> int:
+    """The ``ensemble`` subcommand; returns the exit status (0, or 3 if any run failed)."""
+    from .simulation import RunError
+
+    t0 = wallclock.perf_counter()
+    if args.seeds < 1:
+        raise scn.SceneError(f"--seeds = {args.seeds}: must be >= 1")
+    if args.workers is not None and args.workers < 1:
+        raise scn.SceneError(f"--workers = {args.workers}: must be >= 1")
+    if args.workers is not None and args.scheduler:
+        raise scn.SceneError("--workers sizes the local cluster; it cannot be combined with --scheduler")
+    out_dir = Path(args.out).resolve()
+    if out_dir.exists() and not out_dir.is_dir():
+        raise RunError(f"--out {args.out}: exists and is not a directory")
+
+    text = _scene_text(args.scene)
+    axes = parse_sweep(args.set)
+    runs = plan(axes, args.seeds)
+    resolved = validate(text, runs, args.scene)
+    name = scn.loads(text, [*runs[0].overrides, (SEED_KEY, 1)]).name
+    if out_dir.exists():
+        classify(out_dir, runs, resolved)
+    else:
+        try:
+            out_dir.mkdir(parents=True)
+        except OSError as exc:
+            raise RunError(f"--out {args.out}: cannot create directory ({_error_line(exc)})") from None
+
+    for r in runs:
+        if r.action == "skip":
+            r.status, r.summary = "skipped", _last_diagnostics(out_dir / r.file)
+    write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
+    todo = [r for r in runs if r.action != "skip"]
+    where = "nothing to run"
+    try:
+        if todo:
+            workers = min(args.workers or os.cpu_count() or 1, len(todo))
+            with _cluster(args.scheduler, workers) as (client, where):
+                _run_all(client, text, out_dir, todo)
+    except KeyboardInterrupt:
+        write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
+        print("melange-ti: interrupted; run the same command again to resume the unfinished runs", file=sys.stderr)
+        return 130
+    write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
+    report(runs, out_dir, where, wallclock.perf_counter() - t0)
+    return EXIT_FAILED if any(r.status == "failed" for r in runs) else EXIT_OK

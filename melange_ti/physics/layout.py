@@ -1,0 +1,40 @@
+"""Column layout of the model's arrays (Taichi ndarrays, shared by kernels and host code).
+
+``bodies`` (N, NB, real): one row per iceberg, hot state first.
+``ints`` (N, NI, i32): per-body integers.
+``cdata`` (N, slots, NC, real) and ``cpartner`` (N, slots, i32): contacts of body i with
+partners j > i, sorted by j.
+``cells`` (ncells + 1, 3, i32): counting-sort cell list.
+``par`` (NP, f64): run-time parameters and cumulative scalar accumulators.
+``ipar`` (NQ, i64): run-time integer parameters and counters.
+"""
+
+# bodies: state
+X, Z, TH, VX, VZ, OM = 0, 1, 2, 3, 4, 5
+# bodies: constants
+WIDTH, THICK, MASS, INERTIA, RADIUS, BOUND = 6, 7, 8, 9, 10, 11
+# bodies: per-step scratch and per-body accumulators
+REACH, COS, SIN, DRAG_WORK, SHIFT_X, SHIFT_Z, WALL_PZ, WALL_GAP, KINETIC, POTENTIAL = 12, 13, 14, 15, 16, 17, 18, 19, 20, 21
+NB = 22
+STATE_COLS = {"x": X, "z": Z, "theta": TH, "vx": VX, "vz": VZ, "omega": OM}
+CONST_COLS = {"width": WIDTH, "thickness": THICK, "mass": MASS, "inertia": INERTIA, "radius": RADIUS, "bound": BOUND}
+
+# ints
+CELL, NCONTACT, WALL_ON, SORTED = 0, 1, 2, 3
+NI = 4
+
+# cdata
+CPX, CPZ, CNX, CNZ, CGAP = 0, 1, 2, 3, 4
+NC = 5
+
+# cells
+COUNT, START, FILL = 0, 1, 2
+
+# par (f64)
+DT, RESTITUTION, DRAG_LIN, DRAG_ANG, WATER, WALL_X, BOUND_MAX, REACH_MAX = 0, 1, 2, 3, 4, 5, 6, 7
+ACC_COLLISION, ACC_CORRECTION, ACC_WALL_IMPULSE, ACC_IMPULSE = 8, 9, 10, 11
+NP = 12
+
+# ipar (i64)
+N, K, SLOTS, PASSES, NCELLS, DISCS, CONTACTS, OVERFLOW = 0, 1, 2, 3, 4, 5, 6, 7
+NQ = 8

@@ -1,0 +1,530 @@
+"""One time step as named phases, and the kernels that run them (Taichi).
+
+Kernels take the model's ndarrays as arguments and the frozen effect set ``fx`` as a
+template, so they compile once per effect set (and precision) and are reused by every model
+of any size; parameters such as ``dt`` are read at run time from ``par``. Every term is
+guarded by ``ti.static(fx.<effect>)``: an effect the scene does not name is not compiled.
+
+Phases (semi-implicit Euler, velocities first):
+
+1. ``kick``      v += dt F/m, omega += dt tau/I (gravity, buoyancy), then linear drag as
+                 v /= (1 + c dt) (backward Euler for the drag term: unconditionally stable,
+                 never reverses a velocity); drag's exact energy loss is booked per body.
+2. ``reach``     per-body bound on how far any point of the body moves this step.
+3. ``bin``       counting sort of body centres into hashed cells along x.
+4. ``detect``    (parallel) bounding circles inflated by the reach, then discs of candidate
+                 pairs; all disc pairs of one body pair merge into one contact, stored in
+                 per-body slots sorted by partner index (independent of the thread count).
+                 A contact is kept if its gap may close within this step (speculative
+                 contacts: no tunnelling at any speed).
+5. ``impulses``  sequential, fixed order: body i ascending, its wall contact first, then its
+                 partners j > i ascending; repeated ``contact_passes`` times.
+6. ``drift``     x += dt v, theta += dt omega.
+7. ``correct``   sequential, same order: the overlap left after the drift (estimated from
+                 the contact gap, the final velocities and earlier pushes) is removed along
+                 the normal, split by inverse mass; its potential-energy change is booked.
+"""
+
+import taichi as ti
+
+from .contacts import cross2, disc_local, face_range, to_world
+from .hydrostatics import potential_energy, submerged_moments
+from .layout import (
+    ACC_COLLISION,
+    ACC_CORRECTION,
+    ACC_IMPULSE,
+    ACC_WALL_IMPULSE,
+    BOUND,
+    BOUND_MAX,
+    CELL,
+    CGAP,
+    CNX,
+    CNZ,
+    CONTACTS,
+    COS,
+    COUNT,
+    CPX,
+    CPZ,
+    DISCS,
+    DRAG_ANG,
+    DRAG_LIN,
+    DRAG_WORK,
+    DT,
+    FILL,
+    INERTIA,
+    KINETIC,
+    MASS,
+    NCELLS,
+    NCONTACT,
+    OM,
+    OVERFLOW,
+    PASSES,
+    POTENTIAL,
+    RADIUS,
+    REACH,
+    REACH_MAX,
+    RESTITUTION,
+    SHIFT_X,
+    SHIFT_Z,
+    SIN,
+    SLOTS,
+    SORTED,
+    START,
+    TH,
+    THICK,
+    VX,
+    VZ,
+    WALL_GAP,
+    WALL_ON,
+    WALL_PZ,
+    WALL_X,
+    WATER,
+    WIDTH,
+    X,
+    Z,
+    K,
+    N,
+)
+
+arr = ti.types.ndarray()
+
+
+# ---------------------------------------------------------------- forces and integration
+@ti.func
+def kick(fx: ti.template(), b: ti.template(), par: ti.template(), i):
+    dt = par[DT]
+    m = b[i, MASS]
+    fz = 0.0
+    tau = 0.0
+    if ti.static(fx.gravity):
+        fz -= m
+    if ti.static(fx.buoyancy):
+        mo = submerged_moments(b[i, Z], b[i, TH], 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], par[WATER])
+        fz += mo[0]
+        tau += mo[1]
+    if ti.static(fx.gravity or fx.buoyancy):
+        b[i, VZ] += dt * fz / m
+    if ti.static(fx.buoyancy):
+        b[i, OM] += dt * tau / b[i, INERTIA]
+    if ti.static(fx.drag):
+        vx, vz, om = b[i, VX], b[i, VZ], b[i, OM]
+        lin = 1.0 / (1.0 + par[DRAG_LIN] * dt)
+        ang = 1.0 / (1.0 + par[DRAG_ANG] * dt)
+        b[i, VX] = vx * lin
+        b[i, VZ] = vz * lin
+        b[i, OM] = om * ang
+        b[i, DRAG_WORK] += 0.5 * m * (vx * vx + vz * vz) * (1.0 - lin * lin) + 0.5 * b[i, INERTIA] * om * om * (1.0 - ang * ang)
+
+
+@ti.func
+def drift(b: ti.template(), par: ti.template(), i):
+    dt = par[DT]
+    b[i, X] += dt * b[i, VX]
+    b[i, Z] += dt * b[i, VZ]
+    b[i, TH] += dt * b[i, OM]
+
+
+@ti.func
+def body_energy(fx: ti.template(), b: ti.template(), par: ti.template(), i):
+    return potential_energy(
+        b[i, Z], b[i, TH], 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], b[i, MASS], par[WATER], ti.static(fx.gravity), ti.static(fx.buoyancy)
+    )
+
+
+# ---------------------------------------------------------------- broad phase
+@ti.func
+def reach(b: ti.template(), par: ti.template(), i):
+    """Bound on the distance any point of body i moves this step; caches cos/sin of tilt."""
+    b[i, COS] = ti.cos(b[i, TH])
+    b[i, SIN] = ti.sin(b[i, TH])
+    r = par[DT] * (ti.sqrt(b[i, VX] ** 2 + b[i, VZ] ** 2) + ti.abs(b[i, OM]) * b[i, BOUND])
+    b[i, REACH] = r
+    return r
+
+
+@ti.func
+def cell_size(par: ti.template()):
+    # Bodies closer than the sum of their inflated bounding radii lie in adjacent cells.
+    return 2.0 * (par[BOUND_MAX] + par[REACH_MAX]) + 1e-9
+
+
+@ti.func
+def cell_of(x, size, ncells):
+    return ti.cast(ti.cast(ti.floor(x / size), ti.i64) & (ncells - 1), ti.i32)
+
+
+@ti.func
+def scan_cells(cells: ti.template(), ncells):
+    total = 0
+    for c in range(ti.cast(ncells, ti.i32)):
+        cells[c, START] = total
+        cells[c, FILL] = total
+        total += cells[c, COUNT]
+        cells[c, COUNT] = 0
+    cells[ncells, START] = total
+
+
+# ---------------------------------------------------------------- narrow phase
+@ti.func
+def insert_contact(bi: ti.template(), cd: ti.template(), cp: ti.template(), ipar: ti.template(), i, j, px, pz, nx, nz, gap):
+    cnt = bi[i, NCONTACT]
+    if cnt >= ipar[SLOTS]:
+        ipar[OVERFLOW] = 1
+    else:
+        pos = cnt
+        while pos > 0 and cp[i, pos - 1] > j:
+            cp[i, pos] = cp[i, pos - 1]
+            for c in ti.static(range(5)):
+                cd[i, pos, c] = cd[i, pos - 1, c]
+            pos -= 1
+        cp[i, pos] = j
+        cd[i, pos, CPX] = px
+        cd[i, pos, CPZ] = pz
+        cd[i, pos, CNX] = nx
+        cd[i, pos, CNZ] = nz
+        cd[i, pos, CGAP] = gap
+        bi[i, NCONTACT] = cnt + 1
+
+
+@ti.func
+def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), ipar: ti.template(), i, j, rch):
+    """Merge every close disc pair of (i, j) into one contact (weights = reach - gap).
+
+    Only discs that can matter are visited: on each face of i, the discs within reach of
+    j's bounding circle; for each of those, on each face of j, the discs within reach of
+    it (index ranges from :func:`face_range`). Sums are taken in j's body frame.
+    """
+    k = ti.cast(ipar[K], ti.i32)
+    ci, si, cj, sj = b[i, COS], b[i, SIN], b[j, COS], b[j, SIN]
+    xi, zi, xj, zj = b[i, X], b[i, Z], b[j, X], b[j, Z]
+    hwi, hhi, ri = 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], b[i, RADIUS]
+    hwj, hhj, rj = 0.5 * b[j, WIDTH], 0.5 * b[j, THICK], b[j, RADIUS]
+    dx = xj - xi
+    dz = zj - zi
+    cu = dx * ci + dz * si  # j's centre in i's frame
+    cv = -dx * si + dz * ci
+    outer = b[j, BOUND] + ri + rch
+    touch = ri + rj + rch
+    wsum = 0.0
+    pu = 0.0
+    pv = 0.0
+    nu = 0.0
+    nv = 0.0
+    gap = 1e30
+    for fa in range(4):
+        lo_a, hi_a = face_range(fa, k, hwi, hhi, ri, cu, cv, outer)
+        for ia in range(lo_a, hi_a + 1):
+            wa = to_world(disc_local(fa * k + ia, k, hwi, hhi, ri), xi, zi, ci, si)
+            ex = wa[0] - xj
+            ez = wa[1] - zj
+            au = ex * cj + ez * sj  # disc of i in j's frame
+            av = -ex * sj + ez * cj
+            for fb in range(4):
+                lo_b, hi_b = face_range(fb, k, hwj, hhj, rj, au, av, touch)
+                for ib in range(lo_b, hi_b + 1):
+                    lb = disc_local(fb * k + ib, k, hwj, hhj, rj)
+                    du = au - lb[0]
+                    dv = av - lb[1]
+                    dist = ti.sqrt(du * du + dv * dv)
+                    g = dist - ri - rj
+                    if g < rch and dist > 0:
+                        w = rch - g
+                        wsum += w
+                        t = (rj + 0.5 * g) / dist
+                        pu += w * (lb[0] + du * t)
+                        pv += w * (lb[1] + dv * t)
+                        nu += w * du / dist
+                        nv += w * dv / dist
+                        gap = ti.min(gap, g)
+    if wsum > 0:
+        nn = ti.sqrt(nu * nu + nv * nv)
+        if nn > 0:
+            qu = pu / wsum
+            qv = pv / wsum
+            insert_contact(
+                bi, cd, cp, ipar, i, j, xj + qu * cj - qv * sj, zj + qu * sj + qv * cj, (nu * cj - nv * sj) / nn, (nu * sj + nv * cj) / nn, gap
+            )
+
+
+@ti.func
+def detect_wall(b: ti.template(), bi: ti.template(), par: ti.template(), ipar: ti.template(), i):
+    c, s = b[i, COS], b[i, SIN]
+    hw, hh, r = 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], b[i, RADIUS]
+    rch = b[i, REACH]
+    wall_x = par[WALL_X]
+    bi[i, WALL_ON] = 0
+    if b[i, X] - b[i, BOUND] - rch < wall_x:
+        k = ti.cast(ipar[K], ti.i32)
+        wsum = 0.0
+        pz = 0.0
+        gap = 1e30
+        for a in range(ti.cast(ipar[DISCS], ti.i32)):
+            pa = to_world(disc_local(a, k, hw, hh, r), b[i, X], b[i, Z], c, s)
+            g = pa[0] - r - wall_x
+            if g < rch:
+                w = rch - g
+                wsum += w
+                pz += w * pa[1]
+                gap = ti.min(gap, g)
+        if wsum > 0:
+            bi[i, WALL_ON] = 1
+            b[i, WALL_PZ] = pz / wsum
+            b[i, WALL_GAP] = gap
+
+
+@ti.func
+def detect(
+    fx: ti.template(),
+    b: ti.template(),
+    bi: ti.template(),
+    cd: ti.template(),
+    cp: ti.template(),
+    cells: ti.template(),
+    par: ti.template(),
+    ipar: ti.template(),
+    i,
+    size,
+):
+    """Contacts of body i with partners j > i (slots sorted by j), and with the wall."""
+    bi[i, NCONTACT] = 0
+    if ti.static(fx.collisions):
+        ncells = ipar[NCELLS]
+        xi = b[i, X]
+        zi = b[i, Z]
+        home = ti.cast(ti.floor(xi / size), ti.i64)
+        for dc in ti.static(range(-1, 2)):
+            cell = ti.cast((home + dc) & (ncells - 1), ti.i32)
+            for slot in range(cells[cell, START], cells[cell + 1, START]):
+                j = bi[slot, SORTED]
+                if j > i:
+                    rch = b[i, REACH] + b[j, REACH]
+                    dx = xi - b[j, X]
+                    dz = zi - b[j, Z]
+                    lim = b[i, BOUND] + b[j, BOUND] + rch
+                    if dx * dx + dz * dz < lim * lim:
+                        narrow(b, bi, cd, cp, ipar, i, j, rch)
+    if ti.static(fx.wall):
+        detect_wall(b, bi, par, ipar, i)
+
+
+# ---------------------------------------------------------------- impulses and corrections
+@ti.func
+def normal_speed(b: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz):
+    """Normal relative velocity at the contact; j < 0 is the wall (at rest)."""
+    v1x = b[i, VX] - b[i, OM] * rz1
+    v1z = b[i, VZ] + b[i, OM] * rx1
+    v2x = 0.0
+    v2z = 0.0
+    if j >= 0:
+        v2x = b[j, VX] - b[j, OM] * rz2
+        v2z = b[j, VZ] + b[j, OM] * rx2
+    return (v1x - v2x) * nx + (v1z - v2z) * nz
+
+
+@ti.func
+def resolve(b: ti.template(), par: ti.template(), ipar: ti.template(), i, j, px, pz, nx, nz, gap):
+    """Apply the SPEC impulse to the pair (i, j) (j < 0: the wall) if it approaches."""
+    rx1 = px - b[i, X]
+    rz1 = pz - b[i, Z]
+    rx2 = 0.0
+    rz2 = 0.0
+    if j >= 0:
+        rx2 = px - b[j, X]
+        rz2 = pz - b[j, Z]
+    vn = normal_speed(b, i, j, rx1, rz1, rx2, rz2, nx, nz)
+    if vn < 0 and gap + par[DT] * vn < 0:
+        e = par[RESTITUTION]
+        n = ti.Vector([nx, nz])
+        a1 = cross2(ti.Vector([rx1, rz1]), n)
+        kk = 1.0 / b[i, MASS] + a1 * a1 / b[i, INERTIA]
+        a2 = 0.0
+        if j >= 0:
+            a2 = cross2(ti.Vector([rx2, rz2]), n)
+            kk += 1.0 / b[j, MASS] + a2 * a2 / b[j, INERTIA]
+        jn = -(1.0 + e) * vn / kk
+        b[i, VX] += jn * nx / b[i, MASS]
+        b[i, VZ] += jn * nz / b[i, MASS]
+        b[i, OM] += a1 * jn / b[i, INERTIA]
+        if j >= 0:
+            b[j, VX] -= jn * nx / b[j, MASS]
+            b[j, VZ] -= jn * nz / b[j, MASS]
+            b[j, OM] -= a2 * jn / b[j, INERTIA]
+        else:
+            par[ACC_WALL_IMPULSE] += jn
+        par[ACC_COLLISION] += 0.5 * (1.0 - e * e) * vn * vn / kk
+        par[ACC_IMPULSE] += jn
+        ipar[CONTACTS] += 1
+
+
+@ti.func
+def push(fx: ti.template(), b: ti.template(), par: ti.template(), i, j, px, pz, nx, nz, gap):
+    """Remove the overlap left after the drift, split by inverse mass (pair centre fixed)."""
+    dt = par[DT]
+    # arms at the start of the step, when the contact was found
+    rx1 = px - (b[i, X] - dt * b[i, VX])
+    rz1 = pz - (b[i, Z] - dt * b[i, VZ])
+    rx2 = 0.0
+    rz2 = 0.0
+    inv1 = 1.0 / b[i, MASS]
+    inv2 = 0.0
+    moved = b[i, SHIFT_X] * nx + b[i, SHIFT_Z] * nz
+    if j >= 0:
+        rx2 = px - (b[j, X] - dt * b[j, VX])
+        rz2 = pz - (b[j, Z] - dt * b[j, VZ])
+        inv2 = 1.0 / b[j, MASS]
+        moved -= b[j, SHIFT_X] * nx + b[j, SHIFT_Z] * nz
+    g = gap + dt * normal_speed(b, i, j, rx1, rz1, rx2, rz2, nx, nz) + moved
+    if g < 0:
+        depth = -g
+        u0 = body_energy(fx, b, par, i)
+        s1 = depth * inv1 / (inv1 + inv2)
+        b[i, X] += s1 * nx
+        b[i, Z] += s1 * nz
+        b[i, SHIFT_X] += s1 * nx
+        b[i, SHIFT_Z] += s1 * nz
+        du = body_energy(fx, b, par, i) - u0
+        if j >= 0:
+            u0 = body_energy(fx, b, par, j)
+            s2 = depth * inv2 / (inv1 + inv2)
+            b[j, X] -= s2 * nx
+            b[j, Z] -= s2 * nz
+            b[j, SHIFT_X] -= s2 * nx
+            b[j, SHIFT_Z] -= s2 * nz
+            du += body_energy(fx, b, par, j) - u0
+        par[ACC_CORRECTION] -= du
+
+
+@ti.func
+def impulse_pass(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template(), ipar: ti.template()):
+    n = ti.cast(ipar[N], ti.i32)
+    for _ in range(ti.cast(ipar[PASSES], ti.i32)):
+        for i in range(n):
+            if ti.static(fx.wall):
+                if bi[i, WALL_ON]:
+                    resolve(b, par, ipar, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
+            if ti.static(fx.collisions):
+                for s in range(bi[i, NCONTACT]):
+                    resolve(b, par, ipar, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
+
+
+@ti.func
+def correction_pass(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template()):
+    n = b.shape[0]
+    for i in range(n):
+        b[i, SHIFT_X] = 0.0
+        b[i, SHIFT_Z] = 0.0
+    for i in range(n):
+        if ti.static(fx.wall):
+            if bi[i, WALL_ON]:
+                push(fx, b, par, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
+        if ti.static(fx.collisions):
+            for s in range(bi[i, NCONTACT]):
+                push(fx, b, par, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
+
+
+# ---------------------------------------------------------------- kernels
+@ti.kernel
+def steps_serial(fx: ti.template(), steps: ti.i32, b: arr, bi: arr, cd: arr, cp: arr, cells: arr, par: arr, ipar: arr):
+    """``steps`` whole steps in one call, every loop serial (small N: no launch costs)."""
+    ti.loop_config(serialize=True)
+    for _ in range(steps):
+        n = b.shape[0]
+        for i in range(n):
+            kick(fx, b, par, i)
+        if ti.static(fx.collisions or fx.wall):
+            rmax = 0.0
+            for i in range(n):
+                rmax = ti.max(rmax, reach(b, par, i))
+            par[REACH_MAX] = rmax
+            size = cell_size(par)
+            if ti.static(fx.collisions):
+                ncells = ipar[NCELLS]
+                for i in range(n):
+                    c = cell_of(b[i, X], size, ncells)
+                    bi[i, CELL] = c
+                    cells[c, COUNT] += 1
+                scan_cells(cells, ncells)
+                for i in range(n):
+                    c = bi[i, CELL]
+                    bi[cells[c, FILL], SORTED] = i
+                    cells[c, FILL] += 1
+            for i in range(n):
+                detect(fx, b, bi, cd, cp, cells, par, ipar, i, size)
+            impulse_pass(fx, b, bi, cd, cp, par, ipar)
+        for i in range(n):
+            drift(b, par, i)
+        if ti.static(fx.collisions or fx.wall):
+            correction_pass(fx, b, bi, cd, cp, par)
+
+
+@ti.kernel
+def kick_all(fx: ti.template(), b: arr, par: arr):
+    for i in range(b.shape[0]):
+        kick(fx, b, par, i)
+
+
+@ti.kernel
+def reach_all(b: arr, par: arr):
+    par[REACH_MAX] = 0.0
+    for i in range(b.shape[0]):
+        ti.atomic_max(par[REACH_MAX], reach(b, par, i))
+
+
+@ti.kernel
+def bin_count(b: arr, bi: arr, cells: arr, par: arr, ipar: arr):
+    size = cell_size(par)
+    ncells = ipar[NCELLS]
+    for i in range(b.shape[0]):
+        c = cell_of(b[i, X], size, ncells)
+        bi[i, CELL] = c
+        ti.atomic_add(cells[c, COUNT], 1)
+
+
+@ti.kernel
+def bin_scan(cells: arr, ipar: arr):
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        scan_cells(cells, ipar[NCELLS])
+
+
+@ti.kernel
+def bin_fill(bi: arr, cells: arr):
+    for i in range(bi.shape[0]):
+        c = bi[i, CELL]
+        slot = ti.atomic_add(cells[c, FILL], 1)
+        bi[slot, SORTED] = i
+
+
+@ti.kernel
+def detect_all(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, cells: arr, par: arr, ipar: arr):
+    size = cell_size(par)
+    for i in range(b.shape[0]):
+        detect(fx, b, bi, cd, cp, cells, par, ipar, i, size)
+
+
+@ti.kernel
+def impulses(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, ipar: arr):
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        impulse_pass(fx, b, bi, cd, cp, par, ipar)
+
+
+@ti.kernel
+def drift_all(b: arr, par: arr):
+    for i in range(b.shape[0]):
+        drift(b, par, i)
+
+
+@ti.kernel
+def correct(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr):
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        correction_pass(fx, b, bi, cd, cp, par)
+
+
+@ti.kernel
+def energies(fx: ti.template(), b: arr, par: arr):
+    """Per-body kinetic and potential energy into the KINETIC and POTENTIAL columns."""
+    for i in range(b.shape[0]):
+        b[i, KINETIC] = 0.5 * b[i, MASS] * (b[i, VX] ** 2 + b[i, VZ] ** 2) + 0.5 * b[i, INERTIA] * b[i, OM] ** 2
+        b[i, POTENTIAL] = body_energy(fx, b, par, i)
