@@ -84,6 +84,42 @@ def paper_scene(n: int, precision: str, dt: float, duration: float, discs: int =
     return scene.load(None, ov)
 
 
+_MODELS: dict = {}
+
+
+def _model_key(sc, mode: str):
+    """Everything a compiled model depends on besides the initial state (seed, tilts)."""
+    if sc.shelf is not None:
+        geometry = ("shelf", sc.shelf.count, sc.shelf.width, sc.shelf.thickness)
+    else:
+        geometry = ("table", tuple((float(b.get("width", 1.0)), float(b.get("thickness", 1.4))) for b in sc.iceberg_table))
+    return (sc.effects, sc.precision, sc.physics, sc.contacts, sc.time.dt, geometry, mode)
+
+
+def model_for(sc, mode: str = "auto"):
+    """A model for scene ``sc`` started from its initial state.
+
+    Taichi compiles every model instance afresh (its offline cache is written when the
+    process exits), and compiling a contact kernel costs 2-15 s, so a model is kept per
+    configuration and restarted with ``set_state`` for every seed or repeat.
+    """
+    from .model import Model
+
+    key = _model_key(sc, mode)
+    model = _MODELS.get(key)
+    if model is None:
+        model = _MODELS[key] = Model(sc, mode=mode)
+    else:
+        _reset(model, sc.icebergs())
+    return model
+
+
+def forget(model) -> None:
+    """Drop a model from the cache (after a contact overflow its flag stays set)."""
+    for key in [k for k, v in _MODELS.items() if v is model]:
+        del _MODELS[key]
+
+
 def _reset(model, bergs) -> None:
     """Start ``model`` again from the initial state ``bergs`` with zeroed counters."""
     from .model import STATE
@@ -95,7 +131,7 @@ def _reset(model, bergs) -> None:
 def task_paper(t: dict, precision: str) -> dict:
     """One configuration, every seed in ``seeds``; one compiled model reused across seeds."""
     from . import diagnostics as dg
-    from .model import ContactOverflow, Model
+    from .model import ContactOverflow
 
     dt = float(t["dt"])
     seeds = [int(v) for v in t.get("seeds", [t.get("seed", 1)])]
@@ -103,10 +139,7 @@ def task_paper(t: dict, precision: str) -> dict:
     runs = []
     for seed in seeds:
         sc = paper_scene(t["n"], precision, dt, t["duration"], t["discs"], t["passes"], seed)
-        if model is None:
-            model = Model(sc, mode=t.get("mode", "auto"))
-        else:
-            _reset(model, sc.icebergs())
+        model = model_for(sc, t.get("mode", "auto"))
         every = max(1, int(round(t.get("every", 1.0) / dt)))
         total = sc.time.steps
         s = model.sample()
@@ -124,6 +157,7 @@ def task_paper(t: dict, precision: str) -> dict:
                 _sync()
             except ContactOverflow as exc:
                 ok, error = False, f"ContactOverflow: {exc}"
+                forget(model)
                 break
             el = time.perf_counter() - t0
             if step > 0:  # the first interval compiles the kernels (first seed): not timed
@@ -332,14 +366,14 @@ def task_stable_paper(t: dict, precision: str) -> dict:
     """The paper scene: unstable = non-finite, contact overflow, or the total energy rising
     above its initial value by more than ``rise`` x (N x the energy of one capsize)."""
     from . import diagnostics as dg
-    from .model import ContactOverflow, Model
+    from .model import ContactOverflow
 
     n = int(t["n"])
     duration = float(t["duration"])
     limit = float(t.get("rise", 0.05)) * n * float(dg.capsize_energy(R_DEFAULT, 1.0, 1.4))
 
     def test(dt: float):
-        m = Model(paper_scene(n, precision, dt, duration, t.get("discs", 28), t.get("passes", 1), t.get("seed", 1)))
+        m = model_for(paper_scene(n, precision, dt, duration, t.get("discs", 28), t.get("passes", 1), t.get("seed", 1)))
         total = int(round(duration / dt))
         every = max(1, int(round(1.0 / dt)))
         e0 = _energy(m.sample())
@@ -350,6 +384,7 @@ def task_stable_paper(t: dict, precision: str) -> dict:
             try:
                 m.advance(k)
             except ContactOverflow:
+                forget(m)
                 return False, f"contact overflow at t = {(step + k) * dt:g}"
             step += k
             s = m.sample()

@@ -34,6 +34,7 @@ import re
 import sys
 import threading
 import time as wallclock
+import traceback
 import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -77,6 +78,7 @@ class RunSpec:
     action: str = "fresh"  # fresh | overwrite | resume | skip
     status: str = "pending"  # pending | complete | skipped | failed
     error: str | None = None
+    trace: str | None = None  # worker traceback of a failed run (manifest only)
     summary: dict = field(default_factory=dict)
 
     def describe(self) -> str:
@@ -296,6 +298,7 @@ def write_manifest(out_dir: Path, runs: list[RunSpec], axes: list[Axis], scene_p
                 "overrides": dict(r.overrides),
                 "status": r.status,
                 **({"error": r.error} if r.error else {}),
+                **({"traceback": r.trace} if r.trace else {}),
                 **({"summary": r.summary} if r.summary else {}),
             }
             for r in runs
@@ -319,18 +322,31 @@ def _ensure_taichi(precision: str) -> None:
     if _proc["key"] == key and _proc["models"] >= MODELS_PER_RUNTIME:
         runtime._current = None  # force a fresh runtime (frees the SNode trees of past runs)
     if _proc["key"] != key or runtime._current is None:
-        with contextlib.redirect_stdout(io.StringIO()):  # "[Taichi] Starting on arch=x64"
+        with contextlib.redirect_stdout(io.StringIO()):  # "[Taichi] Starting on arch=x64" (taichi is imported)
             runtime.init("cpu", threads=1, precision=precision)
         _proc.update(key=key, models=0)
     _proc["models"] += 1
 
 
 def run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, action: str) -> dict:
-    """Dask task: one run into ``out`` (``action``: fresh | overwrite | resume)."""
+    """Dask task: one run into ``out`` (``action``: fresh | overwrite | resume).
+
+    Returns ``{"ok": True, **summary}``, or ``{"ok": False, "error": line, "traceback": text}``
+    for a run that raised: a failed run is a result, not a Dask error, so the worker logs
+    no traceback and the client prints one line per failure.
+    """
+    try:
+        return {"ok": True, **_run_one(text, overrides, seed, out, action)}
+    except Exception as exc:
+        return {"ok": False, "error": _error_line(exc), "traceback": traceback.format_exc()}
+
+
+def _run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, action: str) -> dict:
     with _PROCESS_LOCK:
-        with contextlib.redirect_stdout(io.StringIO()):  # Taichi's banner on first import
-            from .io.checkpoint import checkpoint_path
-            from .simulation import Simulation
+        # Imported with the real stdout: Taichi decides at import whether to wrap every
+        # kernel call in a print-buffer flush (10x slower here) if sys.stdout looks wrapped.
+        from .io.checkpoint import checkpoint_path
+        from .simulation import Simulation
         sc = scn.loads(text, [*overrides, (SEED_KEY, seed)])
         _ensure_taichi(sc.precision)
         path = Path(out)
@@ -394,7 +410,8 @@ def _cluster(scheduler: str | None, workers: int):
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
-            env={"ENABLE_TAICHI_HEADER_PRINT": "0"},
+            # No import banner; never Taichi's print buffer (see run_one).
+            env={"ENABLE_TAICHI_HEADER_PRINT": "0", "TI_ENABLE_PYBUF": "0"},
         )
         try:
             client = Client(cluster)
@@ -427,15 +444,20 @@ def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec]) -> None:
         for fut in as_completed(futures):
             r = futures[fut]
             done += 1
-            if fut.status == "finished":
-                r.status, r.summary = "complete", fut.result()
-                msg = f"[{done}/{len(todo)}] {r.file}: done in {r.summary['wall_seconds']:.1f} s"
+            res = fut.result() if fut.status == "finished" else None
+            if res is not None and res.pop("ok"):
+                r.status, r.summary = "complete", res
+                msg = f"[{done}/{len(todo)}] {r.file}: done in {res['wall_seconds']:.1f} s"
             else:
-                try:
-                    exc = fut.exception()
-                except BaseException as cancelled:  # e.g. CancelledError when the cluster went away
-                    exc = cancelled
-                r.status, r.error = "failed", _error_line(exc)
+                if res is not None:  # the run raised inside the task
+                    r.error, r.trace = res["error"], res["traceback"]
+                else:  # the task itself failed: worker died (KilledWorker), not importable, ...
+                    try:
+                        exc = fut.exception()
+                    except BaseException as cancelled:  # CancelledError when the cluster went away
+                        exc = cancelled
+                    r.error = _error_line(exc)
+                r.status = "failed"
                 failed += 1
                 msg = f"[{done}/{len(todo)}] {r.file}: FAILED ({r.error})"
             if bar is not None:

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -529,10 +529,32 @@ def write_summary(rows: list[dict], path: Path) -> Path:
     return path
 
 
-def plot(paths: Sequence[str | Path], out: str | Path, times: Sequence[float] | None = None, width_m: float = 70.0) -> list[Path]:
-    """Every figure for the given run files into directory ``out``; returns the files written."""
+FIGURES = (
+    "fig2_snapshots",
+    "fig3_capsized_fraction",
+    "fig4_leading_edge",
+    "fig5_capsized_by_position",
+    "energy_budget",
+    "impulse_rate_wall_force",
+    "capsized_fraction_by_thickness_std",
+)
+
+
+def plot(
+    paths: Sequence[str | Path],
+    out: str | Path,
+    times: Sequence[float] | None = None,
+    width_m: float = 70.0,
+    names: Collection[str] | None = None,
+) -> list[Path]:
+    """Every figure (or only those in ``names``, see :data:`FIGURES`) for the given run files
+    into directory ``out``, plus ``summary.csv``; returns the files written."""
     if not (math.isfinite(width_m) and width_m > 0):
         raise SceneError(f"--width-m = {width_m:g}: must be a positive number of metres")
+    wanted = set(FIGURES if names is None else names)
+    unknown = wanted - set(FIGURES)
+    if unknown:
+        raise ValueError(f"unknown figures {sorted(unknown)}; known: {', '.join(FIGURES)}")
     units = Units(width_m=width_m)
     runs = [load_run(p) for p in paths]
     out = Path(out)
@@ -546,19 +568,23 @@ def plot(paths: Sequence[str | Path], out: str | Path, times: Sequence[float] | 
         fig2_times = fig5_times = list(times)
     fig2_times, fig5_times = snap_times(fig2_times, runs), snap_times(fig5_times, runs)
     groups = make_groups(runs)
-    written: list[Path] = []
-    written += save(fig_snapshots(groups, units, fig2_times), out, "fig2_snapshots")
-    written += save(fig_capsized_fraction(groups, units), out, "fig3_capsized_fraction")
-    written += save(fig_leading_edge(groups, units), out, "fig4_leading_edge")
-    written += save(fig_capsized_by_position(groups, units, fig5_times), out, "fig5_capsized_by_position")
-    written += save(fig_energy_budget(groups, units), out, "energy_budget")
+    makers = {
+        "fig2_snapshots": lambda: fig_snapshots(groups, units, fig2_times),
+        "fig3_capsized_fraction": lambda: fig_capsized_fraction(groups, units),
+        "fig4_leading_edge": lambda: fig_leading_edge(groups, units),
+        "fig5_capsized_by_position": lambda: fig_capsized_by_position(groups, units, fig5_times),
+        "energy_budget": lambda: fig_energy_budget(groups, units),
+    }
     if all("impulse_rate" in r.diag and "wall_force" in r.diag for r in runs):
-        written += save(fig_impulse_wall(groups, units), out, "impulse_rate_wall_force")
-    spreads = {r.flat.get("shelf.thickness_std") for r in runs}
-    if len(spreads) > 1:
-        by_spread = make_groups(runs, keys=["shelf.thickness_std"])
+        makers["impulse_rate_wall_force"] = lambda: fig_impulse_wall(groups, units)
+    if len({r.flat.get("shelf.thickness_std") for r in runs}) > 1:
         title = "Capsized fraction by thickness spread (shelf.thickness_std; mean ± 1 s.d.)"
-        written += save(fig_capsized_fraction(by_spread, units, title=title), out, "capsized_fraction_by_thickness_std")
+        makers["capsized_fraction_by_thickness_std"] = lambda: fig_capsized_fraction(
+            make_groups(runs, keys=["shelf.thickness_std"]), units, title=title)
+    written: list[Path] = []
+    for name, make in makers.items():
+        if name in wanted:
+            written += save(make(), out, name)
     written.append(write_summary(summary_rows(groups), out / "summary.csv"))
     return written
 

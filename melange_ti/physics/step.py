@@ -187,6 +187,21 @@ def insert_contact(bi: ti.template(), cd: ti.template(), cp: ti.template(), ipar
 
 
 @ti.func
+def boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, gap):
+    """Separating-axis test of two rectangles, in i's frame: j's centre (cu, cv), j's tilt
+    relative to i (cos c, sin s). True when they are more than ``gap`` apart on some axis."""
+    ac = ti.abs(c)
+    as_ = ti.abs(s)
+    # i's axes
+    far = ti.abs(cu) > hwi + hwj * ac + hhj * as_ + gap or ti.abs(cv) > hhi + hwj * as_ + hhj * ac + gap
+    # j's axes: u_j = (c, s), v_j = (-s, c)
+    pu = cu * c + cv * s
+    pv = -cu * s + cv * c
+    far = far or ti.abs(pu) > hwj + hwi * ac + hhi * as_ + gap or ti.abs(pv) > hhj + hwi * as_ + hhi * ac + gap
+    return far
+
+
+@ti.func
 def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), ipar: ti.template(), i, j, rch):
     """Merge every close disc pair of (i, j) into one contact (weights = reach - gap).
 
@@ -205,6 +220,8 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
     cv = -dx * si + dz * ci
     outer = b[j, BOUND] + ri + rch
     touch = ri + rj + rch
+    if boxes_apart(cu, cv, ci * cj + si * sj, sj * ci - cj * si, hwi, hhi, hwj, hhj, rch):
+        outer = -1.0  # the rectangles (which contain the discs) cannot meet this step
     wsum = 0.0
     pu = 0.0
     pv = 0.0
@@ -219,6 +236,8 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
             ez = wa[1] - zj
             au = ex * cj + ez * sj  # disc of i in j's frame
             av = -ex * sj + ez * cj
+            if ti.abs(au) > hwj + ri + rch or ti.abs(av) > hhj + ri + rch:
+                continue
             for fb in range(4):
                 lo_b, hi_b = face_range(fb, k, hwj, hhj, rj, au, av, touch)
                 for ib in range(lo_b, hi_b + 1):
