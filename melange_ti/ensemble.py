@@ -47,11 +47,6 @@ MANIFEST = "ensemble.json"
 EXIT_OK, EXIT_FAILED = 0, 3
 SEED_KEY = "time.seed"
 
-# Every Model adds one Taichi SNode tree, and a process crashes (SIGSEGV) at the 512th
-# (FACTS.md). A worker may run many tasks, so it starts a fresh Taichi runtime after this
-# many models; nothing from an earlier task is alive by then.
-MODELS_PER_RUNTIME = 256
-
 
 # ---------------------------------------------------------------------------- planning
 @dataclass(frozen=True)
@@ -311,21 +306,18 @@ def write_manifest(out_dir: Path, runs: list[RunSpec], axes: list[Axis], scene_p
 
 # ---------------------------------------------------------------------------- worker side
 _PROCESS_LOCK = threading.Lock()  # one Taichi runtime per process: one run at a time
-_proc: dict[str, Any] = {"key": None, "models": 0}
 
 
 def _ensure_taichi(precision: str) -> None:
-    """Taichi for this worker process: CPU, one thread, the scene's precision."""
+    """Taichi for this worker process: CPU, one thread, the scene's precision.
+
+    ``runtime.init`` does nothing when called again with the same settings, so a worker
+    that runs many tasks initialises Taichi once (again only if the precision changes).
+    """
     from . import runtime
 
-    key = ("cpu", 1, precision)
-    if _proc["key"] == key and _proc["models"] >= MODELS_PER_RUNTIME:
-        runtime._current = None  # force a fresh runtime (frees the SNode trees of past runs)
-    if _proc["key"] != key or runtime._current is None:
-        with contextlib.redirect_stdout(io.StringIO()):  # "[Taichi] Starting on arch=x64" (taichi is imported)
-            runtime.init("cpu", threads=1, precision=precision)
-        _proc.update(key=key, models=0)
-    _proc["models"] += 1
+    with contextlib.redirect_stdout(io.StringIO()):  # "[Taichi] Starting on arch=x64" (taichi is imported)
+        runtime.init("cpu", threads=1, precision=precision)
 
 
 def run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, action: str) -> dict:

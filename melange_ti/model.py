@@ -62,7 +62,8 @@ class Model:
         self.cd = ti.ndarray(self.real, shape=(n if self.contacts else 1, slots, L.NC))
         self.cp = ti.ndarray(ti.i32, shape=(n if self.contacts else 1, slots))
         self.cells = ti.ndarray(ti.i32, shape=(ncells + 1, 3))
-        self.par = ti.ndarray(ti.f64, shape=(L.NP,))
+        self.par = ti.ndarray(self.real, shape=(L.NP,))
+        self.acc = ti.ndarray(ti.f64, shape=(L.NA,))
         self.ipar = ti.ndarray(ti.i64, shape=(L.NQ,))
 
         p = scene.physics
@@ -94,7 +95,8 @@ class Model:
             p.wall_x,
             float(bound.max()),
         )
-        self.par.from_numpy(par)
+        self.par.from_numpy(par.astype(self.np_real))
+        self.acc.from_numpy(np.zeros(L.NA))
         ipar = np.zeros(L.NQ, dtype=np.int64)
         ipar[[L.N, L.K, L.SLOTS, L.PASSES, L.NCELLS, L.DISCS]] = (
             n,
@@ -138,24 +140,24 @@ class Model:
         return out
 
     def totals(self) -> Totals:
-        par = self.par.to_numpy()
+        acc = self.acc.to_numpy()
         return Totals(
-            collision_dissipated=float(par[L.ACC_COLLISION]),
-            correction_work=float(par[L.ACC_CORRECTION]),
-            wall_impulse=float(par[L.ACC_WALL_IMPULSE]),
-            impulse_sum=float(par[L.ACC_IMPULSE]),
+            collision_dissipated=float(acc[L.ACC_COLLISION]),
+            correction_work=float(acc[L.ACC_CORRECTION]),
+            wall_impulse=float(acc[L.ACC_WALL_IMPULSE]),
+            impulse_sum=float(acc[L.ACC_IMPULSE]),
             contacts=int(self.ipar.to_numpy()[L.CONTACTS]),
         )
 
     def accumulators(self) -> dict[str, np.ndarray]:
         """Everything besides the state that later bookkeeping depends on (for checkpoints)."""
-        return {"drag_work": self._rows()[:, L.DRAG_WORK].copy(), "par": self.par.to_numpy(), "ipar": self.ipar.to_numpy()}
+        return {"drag_work": self._rows()[:, L.DRAG_WORK].copy(), "acc": self.acc.to_numpy(), "ipar": self.ipar.to_numpy()}
 
     def set_accumulators(self, acc: dict[str, np.ndarray]) -> None:
         rows = self._rows()
         rows[:, L.DRAG_WORK] = acc["drag_work"]
         self.b.from_numpy(rows)
-        self.par.from_numpy(np.asarray(acc["par"], dtype=np.float64))
+        self.acc.from_numpy(np.asarray(acc["acc"], dtype=np.float64))
         self.ipar.from_numpy(np.asarray(acc["ipar"], dtype=np.int64))
 
     def advance(self, steps: int) -> None:
@@ -163,7 +165,7 @@ class Model:
         if steps <= 0:
             return
         if self.mode == "serial":
-            S.steps_serial(self.fx, steps, self.b, self.bi, self.cd, self.cp, self.cells, self.par, self.ipar)
+            S.steps_serial(self.fx, steps, self.b, self.bi, self.cd, self.cp, self.cells, self.par, self.acc, self.ipar)
         else:
             for _ in range(steps):
                 self._step_parallel()
@@ -185,10 +187,10 @@ class Model:
         S.kick_all(self.fx, self.b, self.par)
         if self.contacts:
             self._detect()
-            S.impulses(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.ipar)
+            S.impulses(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc, self.ipar)
         S.drift_all(self.b, self.par)
         if self.contacts:
-            S.correct(self.fx, self.b, self.bi, self.cd, self.cp, self.par)
+            S.correct(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc)
 
     def contact_pairs(self) -> tuple[list[tuple[int, int]], list[int]]:
         """Contacts the next step would consider, without changing the state.

@@ -596,7 +596,8 @@ def main(args) -> int:
     with open(out / "summary.csv") as fh:
         rows = list(csv.DictReader(fh))
     for row in rows:
-        print(f"{row['group']}: {row['runs']} run(s); capsized {float(row['capsized_fraction_end']):.3f} at t = {row['t_end']}; "
-              f"50% at t = {row['t_50']}, 90% at t = {row['t_90']}; leading edge {float(row['leading_edge_end']):.3g} widths")
+        when = {k: (f"t = {row[k]}" if row[k] != "nan" else "not reached") for k in ("t_50", "t_90")}
+        print(f"{row['group']}: {row['runs']} run(s); at t = {row['t_end']} capsized {float(row['capsized_fraction_end']):.3f}, "
+              f"leading edge {float(row['leading_edge_end']):.3g} widths; 50% capsized {when['t_50']}, 90% {when['t_90']}")
     print(f"wrote {len(written)} files to {out}")
     return 0

@@ -224,7 +224,8 @@ class FrameMaker:
             h_in = 1.2 + w_in * 0.8 * height / span
         h_in = min(max(h_in, 2.4), 9.0)
         h_px = int(math.ceil(h_in * dpi / 16.0) * 16)  # even sizes for yuv420p / macro blocks
-        self.fig = plt.figure(figsize=(w_in, h_px / dpi), dpi=dpi)
+        self.fig = plt.figure(figsize=(w_in, h_px / dpi), dpi=dpi, layout="constrained")
+        self._laid_out = False
         ndisc = scene.contacts.discs if discs else None
         if self.zoom:
             gs = self.fig.add_gridspec(2, 1, height_ratios=[1.0, max(zoom_h / 1.6, 0.6)], hspace=0.45)
@@ -244,11 +245,11 @@ class FrameMaker:
         self.ax.set_xlim(*self.xlim)
         if self.zoom:
             self.ax.set_aspect("auto")
-            self.axz.set_aspect("equal", adjustable="datalim")
+            self.axz.set_aspect("equal", adjustable="box")
             self.axz.set_xlabel("x (widths)")
             self.ax.set_title("whole run (stretched)", fontsize=9, loc="left")
         else:
-            self.ax.set_aspect("equal", adjustable="datalim")
+            self.ax.set_aspect("equal", adjustable="box")
             self.ax.set_xlabel("x (widths)")
         phi_colorbar(self.fig, self.artists[0].rects, list(axes), fraction=0.03, pad=0.02)
         self.title = self.fig.suptitle("", fontsize=10)
@@ -266,6 +267,9 @@ class FrameMaker:
         frac = diag.capsized_fraction(theta)
         self.title.set_text(f"{_time_text(float(snaps['time'][k]), self.width_m)}    capsized {100 * frac:.0f}%")
         self.fig.canvas.draw()
+        if not self._laid_out:  # lay out once (first frame), then keep the axes still
+            self.fig.set_layout_engine("none")
+            self._laid_out = True
         return np.asarray(self.fig.canvas.buffer_rgba())[..., :3].copy()
 
     def close(self) -> None:

@@ -5,7 +5,8 @@
 ``cdata`` (N, slots, NC, real) and ``cpartner`` (N, slots, i32): contacts of body i with
 partners j > i, sorted by j.
 ``cells`` (ncells + 1, 3, i32): counting-sort cell list.
-``par`` (NP, f64): run-time parameters and cumulative scalar accumulators.
+``par`` (NP, real): run-time parameters.
+``acc`` (NA, f64): cumulative scalar accumulators.
 ``ipar`` (NQ, i64): run-time integer parameters and counters.
 """
 
@@ -30,10 +31,13 @@ NC = 5
 # cells
 COUNT, START, FILL = 0, 1, 2
 
-# par (f64)
+# par (real)
 DT, RESTITUTION, DRAG_LIN, DRAG_ANG, WATER, WALL_X, BOUND_MAX, REACH_MAX = 0, 1, 2, 3, 4, 5, 6, 7
-ACC_COLLISION, ACC_CORRECTION, ACC_WALL_IMPULSE, ACC_IMPULSE = 8, 9, 10, 11
-NP = 12
+NP = 8
+
+# acc (f64)
+ACC_COLLISION, ACC_CORRECTION, ACC_WALL_IMPULSE, ACC_IMPULSE = 0, 1, 2, 3
+NA = 4
 
 # ipar (i64)
 N, K, SLOTS, PASSES, NCELLS, DISCS, CONTACTS, OVERFLOW = 0, 1, 2, 3, 4, 5, 6, 7

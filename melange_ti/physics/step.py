@@ -341,7 +341,7 @@ def normal_speed(b: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz):
 
 
 @ti.func
-def resolve(b: ti.template(), par: ti.template(), ipar: ti.template(), i, j, px, pz, nx, nz, gap):
+def resolve(b: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template(), i, j, px, pz, nx, nz, gap):
     """Apply the SPEC impulse to the pair (i, j) (j < 0: the wall) if it approaches."""
     rx1 = px - b[i, X]
     rz1 = pz - b[i, Z]
@@ -369,14 +369,14 @@ def resolve(b: ti.template(), par: ti.template(), ipar: ti.template(), i, j, px,
             b[j, VZ] -= jn * nz / b[j, MASS]
             b[j, OM] -= a2 * jn / b[j, INERTIA]
         else:
-            par[ACC_WALL_IMPULSE] += jn
-        par[ACC_COLLISION] += 0.5 * (1.0 - e * e) * vn * vn / kk
-        par[ACC_IMPULSE] += jn
+            acc[ACC_WALL_IMPULSE] += jn
+        acc[ACC_COLLISION] += 0.5 * (1.0 - e * e) * vn * vn / kk
+        acc[ACC_IMPULSE] += jn
         ipar[CONTACTS] += 1
 
 
 @ti.func
-def push(fx: ti.template(), b: ti.template(), par: ti.template(), i, j, px, pz, nx, nz, gap):
+def push(fx: ti.template(), b: ti.template(), par: ti.template(), acc: ti.template(), i, j, px, pz, nx, nz, gap):
     """Remove the overlap left after the drift, split by inverse mass (pair centre fixed)."""
     dt = par[DT]
     # arms at the start of the step, when the contact was found
@@ -410,24 +410,26 @@ def push(fx: ti.template(), b: ti.template(), par: ti.template(), i, j, px, pz, 
             b[j, SHIFT_X] -= s2 * nx
             b[j, SHIFT_Z] -= s2 * nz
             du += body_energy(fx, b, par, j) - u0
-        par[ACC_CORRECTION] -= du
+        acc[ACC_CORRECTION] -= du
 
 
 @ti.func
-def impulse_pass(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template(), ipar: ti.template()):
+def impulse_pass(
+    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template()
+):
     n = ti.cast(ipar[N], ti.i32)
     for _ in range(ti.cast(ipar[PASSES], ti.i32)):
         for i in range(n):
             if ti.static(fx.wall):
                 if bi[i, WALL_ON]:
-                    resolve(b, par, ipar, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
+                    resolve(b, par, acc, ipar, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
             if ti.static(fx.collisions):
                 for s in range(bi[i, NCONTACT]):
-                    resolve(b, par, ipar, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
+                    resolve(b, par, acc, ipar, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
 
 
 @ti.func
-def correction_pass(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template()):
+def correction_pass(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template(), acc: ti.template()):
     n = b.shape[0]
     for i in range(n):
         b[i, SHIFT_X] = 0.0
@@ -435,15 +437,15 @@ def correction_pass(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: 
     for i in range(n):
         if ti.static(fx.wall):
             if bi[i, WALL_ON]:
-                push(fx, b, par, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
+                push(fx, b, par, acc, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
         if ti.static(fx.collisions):
             for s in range(bi[i, NCONTACT]):
-                push(fx, b, par, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
+                push(fx, b, par, acc, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
 
 
 # ---------------------------------------------------------------- kernels
 @ti.kernel
-def steps_serial(fx: ti.template(), steps: ti.i32, b: arr, bi: arr, cd: arr, cp: arr, cells: arr, par: arr, ipar: arr):
+def steps_serial(fx: ti.template(), steps: ti.i32, b: arr, bi: arr, cd: arr, cp: arr, cells: arr, par: arr, acc: arr, ipar: arr):
     """``steps`` whole steps in one call, every loop serial (small N: no launch costs)."""
     ti.loop_config(serialize=True)
     for _ in range(steps):
@@ -469,11 +471,11 @@ def steps_serial(fx: ti.template(), steps: ti.i32, b: arr, bi: arr, cd: arr, cp:
                     cells[c, FILL] += 1
             for i in range(n):
                 detect(fx, b, bi, cd, cp, cells, par, ipar, i, size)
-            impulse_pass(fx, b, bi, cd, cp, par, ipar)
+            impulse_pass(fx, b, bi, cd, cp, par, acc, ipar)
         for i in range(n):
             drift(b, par, i)
         if ti.static(fx.collisions or fx.wall):
-            correction_pass(fx, b, bi, cd, cp, par)
+            correction_pass(fx, b, bi, cd, cp, par, acc)
 
 
 @ti.kernel
@@ -522,10 +524,10 @@ def detect_all(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, cells: arr,
 
 
 @ti.kernel
-def impulses(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, ipar: arr):
+def impulses(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, acc: arr, ipar: arr):
     ti.loop_config(serialize=True)
     for _ in range(1):
-        impulse_pass(fx, b, bi, cd, cp, par, ipar)
+        impulse_pass(fx, b, bi, cd, cp, par, acc, ipar)
 
 
 @ti.kernel
@@ -535,10 +537,10 @@ def drift_all(b: arr, par: arr):
 
 
 @ti.kernel
-def correct(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr):
+def correct(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, acc: arr):
     ti.loop_config(serialize=True)
     for _ in range(1):
-        correction_pass(fx, b, bi, cd, cp, par)
+        correction_pass(fx, b, bi, cd, cp, par, acc)
 
 
 @ti.kernel
