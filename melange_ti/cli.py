@@ -110,11 +110,9 @@ def _cmd_other(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .errors import ArchError, ContactOverflow, NumericalError, RunError
     from .io.hdf5 import OutputError
-    from .model import ContactOverflow
-    from .runtime import ArchError
     from .scene import SceneError
-    from .simulation import NumericalError, RunError
 
     args = build_parser().parse_args(argv)
     handlers = {"run": _cmd_run, "check": _cmd_check}

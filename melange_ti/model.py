@@ -16,11 +16,12 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
+from .errors import ContactOverflow
 from .physics import layout as L
 from .physics import step as S
 from .scene import Icebergs, Scene, disc_radius
 
-SERIAL_MAX_N = 3000  # at or below this, one kernel call runs many serial steps
+SERIAL_MAX_N = 3000  # on the CPU at or below this, one kernel call runs many serial steps
 
 
 @dataclass(frozen=True)
@@ -34,10 +35,6 @@ class Totals:
     contacts: int
 
 
-class ContactOverflow(RuntimeError):
-    """A body had more contact partners than slots; raised instead of dropping contacts."""
-
-
 class Model:
     """Icebergs as Taichi ndarrays plus the step for one fixed effect set."""
 
@@ -49,7 +46,8 @@ class Model:
         self.real = ti.f32 if scene.precision == "f32" else ti.f64
         self.np_real = np.float32 if scene.precision == "f32" else np.float64
         if mode == "auto":
-            mode = "serial" if n <= SERIAL_MAX_N else "parallel"
+            on_cpu = ti.lang.impl.current_cfg().arch in (ti.x64, ti.arm64)
+            mode = "serial" if on_cpu and n <= SERIAL_MAX_N else "parallel"
         if mode not in ("serial", "parallel"):
             raise ValueError(f"mode must be 'auto', 'serial' or 'parallel', not {mode!r}")
         self.mode = mode
@@ -75,7 +73,7 @@ class Model:
             ("thickness", bergs.thickness),
             ("mass", mass),
             ("inertia", mass * (bergs.width**2 + bergs.thickness**2) / 12.0),
-            ("radius", disc_radius(bergs.width, bergs.thickness, scene.contacts.discs)),
+            ("radius", disc_radius(bergs.width, bergs.thickness, scene.contacts.discs, scene.contacts.disc_spacing)),
             ("bound", bound),
         ):
             rows[:, L.CONST_COLS[name]] = value

@@ -6,11 +6,9 @@ import os
 
 import taichi as ti
 
+from .errors import ArchError
+
 _current: tuple | None = None
-
-
-class ArchError(RuntimeError):
-    """The requested backend is not available (one-line message)."""
 
 
 def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", debug: bool = False) -> str:

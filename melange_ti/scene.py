@@ -59,6 +59,7 @@ class Contacts:
     discs: int = 28  # discs per iceberg, a multiple of 4, >= 8
     contact_passes: int = 1  # Gauss-Seidel repetitions of the impulse pass
     max_partners: int = 32  # contact slots per iceberg; overflow stops the run loudly
+    disc_spacing: float = 2.0  # centre spacing on the longest face, in disc radii (2: just touching)
 
 
 @dataclass(frozen=True)
@@ -160,6 +161,7 @@ _RULES: dict[str, tuple[Any, str]] = {
     "contacts.discs": (lambda v: v >= 8 and v % 4 == 0, "must be a multiple of 4 and at least 8"),
     "contacts.contact_passes": (lambda v: v >= 1, "must be >= 1"),
     "contacts.max_partners": (lambda v: 1 <= v <= 1024, "must be in [1, 1024]"),
+    "contacts.disc_spacing": (lambda v: 0.0 < v <= 2.0, "must be in (0, 2] (above 2 the discs leave holes)"),
     "time.dt": (lambda v: v > 0.0, "must be > 0"),
     "time.seed": (lambda v: 0 <= v < 2**63, "must be in [0, 2**63)"),
     "output.snapshot_interval": (lambda v: v > 0.0, "must be > 0"),
@@ -310,16 +312,18 @@ def _generate_shelf(shelf: Shelf, physics: Physics, seed: int) -> Icebergs:
     return Icebergs(x=x, z=z, theta=theta, vx=zeros, vz=zeros.copy(), omega=zeros.copy(), width=width, thickness=thickness)
 
 
-def disc_radius(width: np.ndarray | float, thickness: np.ndarray | float, discs: int) -> Any:
-    """Radius of the collision discs: the longest face divided by ``2 (discs/4 + 1)``.
+def disc_radius(width: np.ndarray | float, thickness: np.ndarray | float, discs: int, spacing: float = 2.0) -> Any:
+    """Radius of the collision discs of rectangles ``width`` x ``thickness``.
 
-    With ``k = discs/4`` discs per face whose centres lie on the rectangle inset by the radius
-    (so the union is tangent to the true faces), neighbours on the longest face are exactly
-    ``2 radius`` apart: the paper's no-hole criterion with equality. The radius may not
-    exceed half the shortest face; that is what "too few discs for the aspect ratio" means.
+    ``k = discs/4`` discs per face have their centres on the rectangle inset by the radius
+    ``r`` (so the union is tangent to the true faces); on the longest face ``L`` they are
+    ``(L - 2r)/k`` apart. Setting that spacing to ``spacing * r`` gives
+    ``r = L / (k spacing + 2)``. ``spacing = 2`` (the default) is the paper's no-hole limit
+    ``l/(n_d/4 + 1) = 2 r_d``; smaller values overlap the discs more (smoother faces,
+    rounder corners). The radius may not exceed half the shortest face.
     """
     longest = np.maximum(width, thickness)
-    return longest / (2.0 * (discs // 4 + 1))
+    return longest / ((discs // 4) * spacing + 2.0)
 
 
 def _rect_corners(b: Icebergs) -> np.ndarray:
@@ -351,11 +355,13 @@ def _check_geometry(scene: Scene) -> None:
         if not np.all(np.isfinite(arr)):
             raise _error(f"iceberg.{name}", arr[~np.isfinite(arr)][0], "must be finite")
     if scene.effects.contacts:
+        # The radius may not exceed half the shortest face: L / (k s + 2) <= l / 2.
+        spacing = scene.contacts.disc_spacing
         aspect = np.maximum(b.width, b.thickness) / np.minimum(b.width, b.thickness)
         k = scene.contacts.discs // 4
         worst = int(np.argmax(aspect))
-        if aspect[worst] > k + 1 + 1e-12:
-            need = 4 * max(2, math.ceil(aspect[worst] - 1 - 1e-12))
+        if 2.0 * aspect[worst] > k * spacing + 2.0 + 1e-12:
+            need = 4 * max(2, math.ceil((2.0 * aspect[worst] - 2.0) / spacing - 1e-12))
             raise _error(
                 "contacts.discs",
                 scene.contacts.discs,

@@ -18,18 +18,11 @@ import numpy as np
 
 from . import __version__
 from . import diagnostics as diag
+from .errors import NumericalError, RunError
 from .io import checkpoint
 from .io.hdf5 import RunWriter, read_run
 from .model import Model
 from .scene import Scene
-
-
-class RunError(RuntimeError):
-    """A run that cannot start or continue (one-line message, exit status 2)."""
-
-
-class NumericalError(RuntimeError):
-    """The state became non-finite or the energy ran away; output up to here is kept."""
 
 
 @dataclass(frozen=True)

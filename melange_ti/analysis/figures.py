@@ -10,18 +10,17 @@ Axes are non-dimensional (widths ``w``, time ``sqrt(w/g)``, energy ``rho_w g w^3
 ``rho_w g w^2`` per unit length of ice front) with a second axis in physical units for an
 iceberg ``--width-m`` metres wide (time unit ``sqrt(width_m / 9.81)`` s, ``rho_w = 1025``).
 
-Files written to ``--out``:
+Files written to ``--out`` (each figure as PNG and PDF):
 
-==================================  =============================================================
-``fig2_snapshots``                  icebergs with their discs near the leading edge at chosen times
-``fig3_capsized_fraction``          fraction capsized (``phi >= pi/4``) vs time
-``fig4_leading_edge``               leading edge vs time
-``fig5_capsized_by_position``       fraction capsized in bins of 10 widths, at several times
-``energy_budget``                   released, kinetic, dissipated (drag, collisions, corrections), residual
-``impulse_rate_wall_force``         collision impulse rate (a seismic proxy) and force on the wall
-``capsized_fraction_by_thickness_std``  Fig. 3 grouped by ``shelf.thickness_std`` (only when several are given)
-``summary.csv``                     per group: runs, times of 50% / 90% capsized, final leading edge
-==================================  =============================================================
+- ``fig2_snapshots``: icebergs with their discs near the leading edge at chosen times
+- ``fig3_capsized_fraction``: fraction capsized (``phi >= pi/4``) vs time
+- ``fig4_leading_edge``: leading edge vs time
+- ``fig5_capsized_by_position``: fraction capsized in bins of 10 widths, at several times
+- ``energy_budget``: released, kinetic, dissipated (drag, collisions, corrections), residual
+- ``impulse_rate_wall_force``: collision impulse rate (a seismic proxy) and force on the wall
+- ``capsized_fraction_by_thickness_std``: Fig. 3 grouped by ``shelf.thickness_std`` (only when
+  the runs have several spreads)
+- ``summary.csv``: per group, runs, times of 50% / 90% capsized, final leading edge, energy
 """
 
 from __future__ import annotations
@@ -269,7 +268,7 @@ def _tmax(groups: Sequence[Group]) -> float:
 def fig_capsized_fraction(groups: Sequence[Group], units: Units, title: str | None = None):
     """Paper Fig. 3: the fraction capsized vs time, mean and one standard deviation."""
     fig, ax = plt.subplots(figsize=(7.0, 4.6), layout="constrained")
-    for g, color in zip(groups, _colors(len(groups))):
+    for g, color in zip(groups, _colors(len(groups)), strict=True):
         ens = g.series("capsized_fraction")
         _band(ax, ens, color, _label(g))
         for level, t in stats.capsize_times(ens.time, ens.mean).items():
@@ -288,7 +287,7 @@ def fig_leading_edge(groups: Sequence[Group], units: Units):
     """Paper Fig. 4: the leading edge ``max x(t) - max x(0)`` vs time."""
     fig, ax = plt.subplots(figsize=(7.0, 4.6), layout="constrained")
     lmax = 0.0
-    for g, color in zip(groups, _colors(len(groups))):
+    for g, color in zip(groups, _colors(len(groups)), strict=True):
         ens = g.series("leading_edge")
         _band(ax, ens, color, _label(g))
         lmax = max(lmax, float(np.nanmax(np.abs(ens.mean))))
@@ -330,8 +329,17 @@ def fig_capsized_by_position(groups: Sequence[Group], units: Units, times: Seque
             ok = count > 0
             color = cmap(j / max(len(times) - 1, 1))
             t_snap = float(g.runs[0].snaps["time"][stats.nearest_index(g.runs[0].snaps["time"], t)])
-            ax.errorbar(centres[ok], mean[ok], yerr=std[ok] if len(g.runs) > 1 else None, color=color, marker="o", ms=3,
-                        lw=1.2, capsize=2, label=f"t = {t_snap:g}")
+            ax.errorbar(
+                centres[ok],
+                mean[ok],
+                yerr=std[ok] if len(g.runs) > 1 else None,
+                color=color,
+                marker="o",
+                ms=3,
+                lw=1.2,
+                capsize=2,
+                label=f"t = {t_snap:g}",
+            )
         ax.set_ylim(-0.03, 1.03)
         ax.set_ylabel("fraction capsized")
         ax.grid(alpha=0.3)
@@ -345,7 +353,9 @@ def fig_capsized_by_position(groups: Sequence[Group], units: Units, times: Seque
     return fig
 
 
-def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float], span: float = SNAPSHOT_SPAN, max_groups: int = 3):
+def fig_snapshots(
+    groups: Sequence[Group], units: Units, times: Sequence[float], span: float = SNAPSHOT_SPAN, max_groups: int = 3
+):
     """Paper Fig. 2: icebergs and their discs near the leading edge at ``times`` (first run of each group)."""
     shown = list(groups)[:max_groups]
     windows = []
@@ -369,13 +379,14 @@ def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float],
     zlo, zhi = min(zlo, 0.0) - 0.4, max(zhi, 0.0) + 0.4
     panel_w = 10.0 if ncol == 1 else 6.0
     panel_h = max(1.0, panel_w * (zhi - zlo) / width_w)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(panel_w * ncol + 1.0, panel_h * nrow + 1.4), squeeze=False,
-                             layout="constrained")
+    fig, axes = plt.subplots(
+        nrow, ncol, figsize=(panel_w * ncol + 1.0, panel_h * nrow + 1.4), squeeze=False, layout="constrained"
+    )
     mappable = None
-    for c, (g, col) in enumerate(zip(shown, windows)):
+    for c, (g, col) in enumerate(zip(shown, windows, strict=True)):
         r = g.runs[0]
         w, h = r.data["icebergs"]["width"], r.data["icebergs"]["thickness"]
-        for row, (k, sel, x0, x1) in enumerate(col):
+        for row, (k, sel, _, x1) in enumerate(col):
             ax = axes[row, c]
             draw_sea(ax, r.scene, (zlo, zhi))
             art = IcebergArtist(ax, w[sel], h[sel], discs=r.scene.contacts.discs)
@@ -393,8 +404,7 @@ def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float],
             if row == nrow - 1:
                 ax.set_xlabel("x (widths)")
     phi_colorbar(fig, mappable, axes.ravel().tolist(), shrink=0.8, fraction=0.04)
-    fig.suptitle("The leading edge of the mélange (icebergs coloured by capsize angle, with their collision discs)",
-                 fontsize=10)
+    fig.suptitle("The leading edge of the mélange (icebergs coloured by capsize angle, with their collision discs)", fontsize=10)
     return fig
 
 
@@ -412,10 +422,7 @@ def energy_terms(group: Group) -> tuple[np.ndarray, dict[str, stats.Ensemble]]:
     """Ensemble (mean, std) of each term of :func:`stats.energy_budget` for one group."""
     budgets = [(r.diag["time"], stats.energy_budget(r.diag)) for r in group.runs]
     grid = stats.common_grid([t for t, _ in budgets])
-    out = {
-        name: stats.ensemble([(t, b[name]) for t, b in budgets], grid=grid)
-        for name in (*stats.ENERGY_TERMS, "total_loss")
-    }
+    out = {name: stats.ensemble([(t, b[name]) for t, b in budgets], grid=grid) for name in (*stats.ENERGY_TERMS, "total_loss")}
     return grid, out
 
 
@@ -457,9 +464,9 @@ def fig_impulse_wall(groups: Sequence[Group], units: Units):
         ("impulse_rate", "collision impulse rate (ρ_w g w²)", "impulse rate"),
         ("wall_force", "force on the wall (ρ_w g w²)", "wall force"),
     )
-    for ax, (name, ylabel, short) in zip(axes, panels):
+    for ax, (name, ylabel, short) in zip(axes, panels, strict=True):
         fmax = 0.0
-        for g, color in zip(groups, _colors(len(groups))):
+        for g, color in zip(groups, _colors(len(groups)), strict=True):
             ens = g.series(name)
             _band(ax, ens, color, _label(g))
             fmax = max(fmax, float(np.nanmax(np.abs(ens.mean))) if ens.mean.size else 0.0)
@@ -500,20 +507,22 @@ def summary_rows(groups: Sequence[Group]) -> list[dict]:
         edge = g.series("leading_edge")
         cross = stats.capsize_times(frac.time, frac.mean)
         grid, terms = energy_terms(g)
-        rows.append({
-            "group": g.label,
-            "runs": len(g.runs),
-            "seeds": " ".join(str(r.seed) for r in g.runs),
-            "t_end": float(frac.time[-1]),
-            "capsized_fraction_end": float(frac.mean[-1]),
-            "capsized_fraction_end_std": float(frac.std[-1]),
-            "t_50": cross[0.5],
-            "t_90": cross[0.9],
-            "leading_edge_end": float(edge.mean[-1]),
-            "leading_edge_end_std": float(edge.std[-1]),
-            "energy_released_end": float(terms["released"].mean[-1]),
-            "energy_residual_end": float(terms["residual"].mean[-1]),
-        })
+        rows.append(
+            {
+                "group": g.label,
+                "runs": len(g.runs),
+                "seeds": " ".join(str(r.seed) for r in g.runs),
+                "t_end": float(frac.time[-1]),
+                "capsized_fraction_end": float(frac.mean[-1]),
+                "capsized_fraction_end_std": float(frac.std[-1]),
+                "t_50": cross[0.5],
+                "t_90": cross[0.9],
+                "leading_edge_end": float(edge.mean[-1]),
+                "leading_edge_end_std": float(edge.std[-1]),
+                "energy_released_end": float(terms["released"].mean[-1]),
+                "energy_residual_end": float(terms["residual"].mean[-1]),
+            }
+        )
     return rows
 
 
@@ -580,7 +589,8 @@ def plot(
     if len({r.flat.get("shelf.thickness_std") for r in runs}) > 1:
         title = "Capsized fraction by thickness spread (shelf.thickness_std; mean ± 1 s.d.)"
         makers["capsized_fraction_by_thickness_std"] = lambda: fig_capsized_fraction(
-            make_groups(runs, keys=["shelf.thickness_std"]), units, title=title)
+            make_groups(runs, keys=["shelf.thickness_std"]), units, title=title
+        )
     written: list[Path] = []
     for name, make in makers.items():
         if name in wanted:
@@ -597,7 +607,9 @@ def main(args) -> int:
         rows = list(csv.DictReader(fh))
     for row in rows:
         when = {k: (f"t = {row[k]}" if row[k] != "nan" else "not reached") for k in ("t_50", "t_90")}
-        print(f"{row['group']}: {row['runs']} run(s); at t = {row['t_end']} capsized {float(row['capsized_fraction_end']):.3f}, "
-              f"leading edge {float(row['leading_edge_end']):.3g} widths; 50% capsized {when['t_50']}, 90% {when['t_90']}")
+        print(
+            f"{row['group']}: {row['runs']} run(s); at t = {row['t_end']} capsized {float(row['capsized_fraction_end']):.3f}, "
+            f"leading edge {float(row['leading_edge_end']):.3g} widths; 50% capsized {when['t_50']}, 90% {when['t_90']}"
+        )
     print(f"wrote {len(written)} files to {out}")
     return 0

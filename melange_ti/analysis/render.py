@@ -96,14 +96,14 @@ class IcebergArtist:
     artists.
     """
 
-    def __init__(self, ax, width, thickness, discs: int | None = None, cmap: str = CMAP):
+    def __init__(self, ax, width, thickness, discs: int | None = None, cmap: str = CMAP, edge_width: float = 0.6):
         self.ax = ax
         self.width = np.asarray(width, dtype=float)
         self.thickness = np.asarray(thickness, dtype=float)
         self.discs = discs
         n = self.width.shape[0]
         self.rects = PolyCollection(
-            np.zeros((n, 4, 2)), cmap=cmap, norm=PHI_NORM, edgecolors="k", linewidths=0.6, zorder=3
+            np.zeros((n, 4, 2)), cmap=cmap, norm=PHI_NORM, edgecolors="k", linewidths=edge_width, zorder=3
         )
         self.rects.set_array(np.zeros(n))
         ax.add_collection(self.rects)
@@ -112,8 +112,17 @@ class IcebergArtist:
             _, r = disc_local(self.width, self.thickness, discs)
             d = np.repeat(2.0 * r, discs)
             self.circles = EllipseCollection(
-                d, d, np.zeros_like(d), units="xy", offsets=np.zeros((d.size, 2)), offset_transform=ax.transData,
-                facecolors="none", edgecolors="w", linewidths=0.5, alpha=0.9, zorder=4,
+                d,
+                d,
+                np.zeros_like(d),
+                units="xy",
+                offsets=np.zeros((d.size, 2)),
+                offset_transform=ax.transData,
+                facecolors="none",
+                edgecolors="w",
+                linewidths=0.5,
+                alpha=0.9,
+                zorder=4,
             )
             ax.add_collection(self.circles)
 
@@ -203,8 +212,11 @@ class FrameMaker:
         width = run["icebergs"]["width"]
         thickness = run["icebergs"]["thickness"]
         corners = rect_corners(
-            snaps["x"][frames].ravel(), snaps["z"][frames].ravel(), snaps["theta"][frames].ravel(),
-            np.tile(width, len(frames)), np.tile(thickness, len(frames)),
+            snaps["x"][frames].ravel(),
+            snaps["z"][frames].ravel(),
+            snaps["theta"][frames].ravel(),
+            np.tile(width, len(frames)),
+            np.tile(thickness, len(frames)),
         )
         xmin, xmax, zmin, zmax = extent(corners)
         if scene.effects.wall:
@@ -241,7 +253,9 @@ class FrameMaker:
             draw_sea(ax, scene, self.zlim)
             ax.set_ylim(*self.zlim)
             ax.set_ylabel("z (widths)")
-            self.artists.append(IcebergArtist(ax, width, thickness, ndisc if (k == len(axes) - 1) else None))
+            overview = self.zoom and k == 0  # edges would hide the icebergs at that scale
+            art = IcebergArtist(ax, width, thickness, None if overview else ndisc, edge_width=0.0 if overview else 0.6)
+            self.artists.append(art)
         self.ax.set_xlim(*self.xlim)
         if self.zoom:
             self.ax.set_aspect("auto")
@@ -284,7 +298,9 @@ def frame_indices(n: int, every: int) -> np.ndarray:
     return np.asarray(idx)
 
 
-def render(path: str | Path, out: str | Path, discs: bool = False, every: int = 1, fps: int = 20, width_m: float = 70.0) -> list[Path]:
+def render(
+    path: str | Path, out: str | Path, discs: bool = False, every: int = 1, fps: int = 20, width_m: float = 70.0
+) -> list[Path]:
     """Render a run to ``out``: an ``.mp4`` file, or a directory of ``frame_00000.png`` ...
 
     Returns the files written.
@@ -347,8 +363,15 @@ class _Movie:
         if self.gen is None:
             h, w = rgb.shape[:2]
             self.gen = imageio_ffmpeg.write_frames(
-                str(self.path), (w, h), fps=self.fps, codec="libx264", pix_fmt_in="rgb24", pix_fmt_out="yuv420p",
-                quality=7, macro_block_size=16, ffmpeg_log_level="error",
+                str(self.path),
+                (w, h),
+                fps=self.fps,
+                codec="libx264",
+                pix_fmt_in="rgb24",
+                pix_fmt_out="yuv420p",
+                quality=7,
+                macro_block_size=16,
+                ffmpeg_log_level="error",
             )
             self.gen.send(None)
         try:
@@ -379,8 +402,9 @@ def _movie_writer(out: Path, fps: int) -> _Movie:
     try:
         import imageio_ffmpeg
     except ImportError:
-        raise OutputError("MP4 output needs the imageio-ffmpeg package (pip install imageio-ffmpeg); "
-                          "or give a directory for PNG frames") from None
+        raise OutputError(
+            "MP4 output needs the imageio-ffmpeg package (pip install imageio-ffmpeg); or give a directory for PNG frames"
+        ) from None
     try:
         exe = imageio_ffmpeg.get_ffmpeg_exe()
     except RuntimeError as exc:
@@ -398,8 +422,7 @@ def _movie_writer(out: Path, fps: int) -> _Movie:
 
 def main(args) -> int:
     """Entry point of ``melange-ti render``."""
-    written = render(args.run, args.out, discs=args.discs, every=args.every, fps=args.fps,
-                     width_m=getattr(args, "width_m", 70.0))
+    written = render(args.run, args.out, discs=args.discs, every=args.every, fps=args.fps, width_m=getattr(args, "width_m", 70.0))
     if len(written) == 1:
         print(f"wrote {written[0]}")
     else:

@@ -178,6 +178,19 @@ def capsized_by_position_ensemble(
     return mean, std, np.isfinite(values).sum(axis=0)
 
 
+def capsized_by_position_history(snapshots: Mapping[str, np.ndarray], edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Fraction capsized in each bin at every snapshot of one run: shapes (S, bins) each.
+
+    Returns ``(fraction, count)``; a space-time view of paper Fig. 5.
+    """
+    x, theta = np.asarray(snapshots["x"]), np.asarray(snapshots["theta"])
+    rows = [capsized_by_position(x[k], theta[k], edges) for k in range(x.shape[0])]
+    nb = len(edges) - 1
+    frac = np.array([r[0] for r in rows]).reshape(-1, nb)
+    count = np.array([r[1] for r in rows]).reshape(-1, nb)
+    return frac, count
+
+
 ENERGY_TERMS = ("released", "kinetic", "drag", "collision", "correction", "residual")
 
 

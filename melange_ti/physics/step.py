@@ -239,6 +239,16 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
             if ti.abs(au) > hwj + ri + rch or ti.abs(av) > hhj + ri + rch:
                 continue
             for fb in range(4):
+                # j's faces are axis-aligned in its frame: a cheap distance test first
+                off = au - (hwj - rj)
+                if fb == 1:
+                    off = av - (hhj - rj)
+                elif fb == 2:
+                    off = au + (hwj - rj)
+                elif fb == 3:
+                    off = av + (hhj - rj)
+                if ti.abs(off) >= touch:
+                    continue
                 lo_b, hi_b = face_range(fb, k, hwj, hhj, rj, au, av, touch)
                 for ib in range(lo_b, hi_b + 1):
                     lb = disc_local(fb * k + ib, k, hwj, hhj, rj)

@@ -1,0 +1,409 @@
+"""Analysis: ensemble statistics, the ``plot`` and ``render`` commands (SPEC sections 4 and 5).
+
+Statistics are checked against hand-computed values on hand-made run files (written with
+plain h5py following SPEC section 5); the commands run end to end on tiny real runs made
+with the real command line.
+"""
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+from melange_ti.analysis import stats
+from melange_ti.cli import main as cli
+from melange_ti.io.hdf5 import RunWriter
+from melange_ti.scene import dumps_toml, from_dict
+
+# ---------------------------------------------------------------------------------------
+# Helpers
+
+
+def scene_toml(count: int = 4, seed: int = 1, duration: float = 4.0, **shelf) -> str:
+    doc = {
+        "scene": {"name": "hand", "effects": ["gravity", "buoyancy", "drag", "collisions", "wall"]},
+        "time": {"dt": 0.5, "duration": duration, "seed": seed},
+        "output": {"snapshot_interval": 0.5, "diagnostic_interval": 0.5},
+        "contacts": {"discs": 12},
+        "shelf": {"count": count, **shelf},
+    }
+    return from_dict(doc).to_toml()
+
+
+def write_run(path, *, diag: dict, snaps: dict, seed: int = 1, width=None, thickness=None, **shelf) -> str:
+    """A run file by hand, following SPEC section 5 (missing diagnostics are zeros)."""
+    t = np.asarray(diag["time"], dtype=float)
+    n = np.asarray(snaps["x"]).shape[1]
+    with h5py.File(path, "w") as f:
+        f.attrs["scene_toml"] = scene_toml(count=n, seed=seed, duration=float(t[-1]), **shelf)
+        f.attrs["format_version"] = 1
+        f.attrs["seed"] = seed
+        g = f.create_group("icebergs")
+        g["width"] = np.ones(n) if width is None else width
+        g["thickness"] = np.full(n, 1.4) if thickness is None else thickness
+        g["mass"] = 0.8946 * g["width"][:] * g["thickness"][:]
+        g["inertia"] = g["mass"][:] * (g["width"][:] ** 2 + g["thickness"][:] ** 2) / 12
+        s = f.create_group("snapshots")
+        s["time"] = np.asarray(snaps["time"], dtype=float)
+        for k in ("x", "z", "theta", "vx", "vz", "omega"):
+            s[k] = np.asarray(snaps.get(k, np.zeros_like(np.asarray(snaps["x"], dtype=float))), dtype=float)
+        d = f.create_group("diagnostics")
+        d["time"] = t
+        for k in (
+            "capsized_fraction",
+            "leading_edge",
+            "kinetic_energy",
+            "potential_energy",
+            "drag_dissipated",
+            "collision_dissipated",
+            "correction_work",
+            "wall_force",
+            "impulse_rate",
+        ):
+            d[k] = np.asarray(diag.get(k, np.zeros_like(t)), dtype=float)
+        d["contacts"] = np.zeros(len(t), dtype=np.int64)
+    return str(path)
+
+
+# Two hand-made runs of different duration and diagnostic interval (A: dt 1 to t = 4,
+# B: dt 0.5 to t = 3), so the common grid is B's.
+T_A = np.arange(5.0)
+F_A = np.array([0.0, 0.2, 0.4, 1.0, 1.0])
+T_B = np.arange(7) * 0.5
+F_B = np.array([0.0, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0])
+# By hand: A on B's grid, the mean and the population standard deviation.
+A_ON_B = np.array([0.0, 0.1, 0.2, 0.3, 0.4, 0.7, 1.0])
+MEAN = np.array([0.0, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0])
+STD = np.array([0.0, 0.0, 0.0, 0.05, 0.1, 0.05, 0.0])
+
+# Snapshots at t = 0 and t = 2 of 4 icebergs; Fig. 5 bins [0,10), [10,20), [20,30).
+SNAP_A = {"time": [0.0, 2.0], "x": [[1, 2, 3, 4], [3, 8, 14, 25]], "theta": [[0, 0, 0, 0], [0, 1.0, 0.2, 1.5]]}
+SNAP_B = {"time": [0.0, 2.0], "x": [[1, 2, 3, 4], [2, 12, 13, 22]], "theta": [[0, 0, 0, 0], [1.2, 1.2, 0, 0]]}
+
+
+@pytest.fixture(scope="module")
+def hand_runs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("hand")
+    a = write_run(
+        d / "a.h5",
+        seed=1,
+        snaps=SNAP_A,
+        diag={
+            "time": T_A,
+            "capsized_fraction": F_A,
+            "leading_edge": T_A,
+            "kinetic_energy": [0.0, 0.5, 0.25, 0.125, 0.0],
+            "potential_energy": [10.0, 9.0, 8.0, 7.5, 7.0],
+            "drag_dissipated": [0.0, 0.25, 0.5, 1.0, 1.5],
+            "collision_dissipated": [0.0, 0.125, 1.0, 1.25, 1.25],
+            "correction_work": [0.0, 0.0, 0.125, 0.125, 0.25],
+            "wall_force": [0, 1, 2, 1, 0],
+            "impulse_rate": [0, 2, 4, 2, 0],
+        },
+    )
+    b = write_run(
+        d / "b.h5",
+        seed=2,
+        snaps=SNAP_B,
+        diag={
+            "time": T_B,
+            "capsized_fraction": F_B,
+            "leading_edge": 2 * T_B,
+            "kinetic_energy": np.linspace(0, 0.3, 7),
+            "potential_energy": np.linspace(10, 9, 7),
+        },
+    )
+    return a, b
+
+
+@pytest.fixture(scope="module")
+def real_runs(tmp_path_factory):
+    """Two tiny real runs (12 icebergs, 12 and 28 discs) made with the real command line."""
+    d = tmp_path_factory.mktemp("real")
+    scene = d / "tiny.toml"
+    scene.write_text(
+        dumps_toml(
+            {
+                "scene": {"name": "tiny", "effects": ["gravity", "buoyancy", "drag", "collisions", "wall"]},
+                "physics": {"density_ratio": 0.8946, "restitution": 0.5, "drag": 0.01, "angular_drag": 0.01},
+                "time": {"dt": 0.02, "duration": 8.0, "seed": 1},
+                "output": {"snapshot_interval": 1.0, "diagnostic_interval": 0.5},
+                "shelf": {"count": 12, "width": 1.0, "thickness": 1.4, "gap": 0.6, "tilt": 0.3},
+            }
+        )
+    )
+    paths = []
+    for discs in (12, 28):
+        out = d / f"run_d{discs}.h5"
+        assert cli(["run", str(scene), "--out", str(out), "--set", f"contacts.discs={discs}"]) == 0
+        paths.append(str(out))
+    return paths
+
+
+def assert_png(path, min_kb: float = 10.0, min_px: int = 300) -> None:
+    from matplotlib.image import imread
+
+    assert path.exists(), path
+    assert path.stat().st_size > min_kb * 1024, (path, path.stat().st_size)
+    img = imread(path)
+    assert img.ndim == 3 and img.shape[0] >= min_px // 2 and img.shape[1] >= min_px, img.shape
+
+
+# ---------------------------------------------------------------------------------------
+# Pure statistics
+
+
+def test_mean_std_exact():
+    values = np.array([[1.0, 2.0, np.nan], [3.0, 6.0, np.nan], [5.0, 7.0, 4.0]])
+    mean, std = stats.mean_std(values)
+    np.testing.assert_array_equal(mean, [3.0, 5.0, 4.0])
+    np.testing.assert_allclose(std, [math.sqrt(8 / 3), math.sqrt(14 / 3), 0.0], rtol=1e-15)
+    _, std1 = stats.mean_std(values, ddof=1)
+    np.testing.assert_allclose(std1[:2], [2.0, math.sqrt(7.0)], rtol=1e-15)
+    assert math.isnan(std1[2])  # one run: no sample spread
+
+
+def test_ensemble_on_grid_of_shortest_run():
+    ens = stats.ensemble([(T_A, F_A), (T_B, F_B)])
+    np.testing.assert_array_equal(ens.time, T_B)
+    np.testing.assert_allclose(ens.values[0], A_ON_B, atol=1e-15)
+    np.testing.assert_allclose(ens.mean, MEAN, atol=1e-15)
+    np.testing.assert_allclose(ens.std, STD, atol=1e-15)
+    assert ens.runs == 2
+
+
+def test_crossing_times():
+    t = np.arange(5.0)
+    y = np.array([0.0, 0.2, 0.4, 0.8, 1.0])
+    assert stats.crossing_time(t, y, 0.5) == pytest.approx(2.25)
+    assert stats.crossing_time(t, y, 0.9) == pytest.approx(3.5)
+    assert stats.crossing_time(t, y, 0.0) == 0.0
+    assert math.isnan(stats.crossing_time(t, y, 1.5))
+    got = stats.capsize_times(T_B, MEAN)
+    assert got[0.5] == pytest.approx(2.0)
+    assert got[0.9] == pytest.approx(2.8)  # between 2.5 (0.75) and 3.0 (1.0)
+    # first crossing, not a later one after a dip
+    assert stats.crossing_time([0, 1, 2, 3], [0.0, 0.6, 0.4, 0.7], 0.5) == pytest.approx(5 / 6)
+
+
+def test_leading_edge_at():
+    le = stats.leading_edge_at(T_B, 1.5 * T_B, [1.0, 2.25, 5.0])
+    np.testing.assert_allclose(le[:2], [1.5, 3.375])
+    assert math.isnan(le[2])  # past the end of the run
+
+
+def test_capsized_by_position_hand_values():
+    edges = stats.position_edges(0.0, 25.0, 10.0)
+    np.testing.assert_array_equal(edges, [0, 10, 20, 30])
+    frac, count = stats.capsized_by_position(np.array([3, 8, 14, 25, 31.0]), np.array([0, 1.0, 0.2, 1.5, 0]), edges)
+    np.testing.assert_array_equal(count, [2, 1, 1])
+    np.testing.assert_array_equal(frac, [0.5, 0.0, 1.0])
+    # phi >= pi/4 counts, theta beyond pi folds back (3 rad is 0.14 rad from upright)
+    frac, _ = stats.capsized_by_position(np.array([1.0, 2, 3]), np.array([math.pi / 4, -math.pi / 2, 3.0]), edges[:2])
+    assert frac[0] == pytest.approx(2 / 3)
+    snaps = [{k: np.asarray(v, dtype=float) for k, v in s.items()} for s in (SNAP_A, SNAP_B)]
+    mean, std, n = stats.capsized_by_position_ensemble(snaps, 1.9, edges)
+    np.testing.assert_allclose(mean, [0.75, 0.25, 0.5])
+    np.testing.assert_allclose(std, [0.25, 0.25, 0.5])
+    np.testing.assert_array_equal(n, [2, 2, 2])
+    frac, count = stats.capsized_by_position_history(snaps[1], edges)
+    np.testing.assert_array_equal(frac, [[0.0, np.nan, np.nan], [1.0, 0.5, 0.0]])
+    np.testing.assert_array_equal(count, [[4, 0, 0], [1, 2, 1]])
+
+
+def test_energy_budget_terms_sum_to_total():
+    rng = np.random.default_rng(3)
+    diag = {
+        "kinetic_energy": rng.random(20),
+        "potential_energy": 5 - np.cumsum(rng.random(20)),
+        "drag_dissipated": np.cumsum(rng.random(20)),
+        "collision_dissipated": np.cumsum(rng.random(20)),
+        "correction_work": np.cumsum(rng.random(20)) * 0.01,
+    }
+    b = stats.energy_budget(diag)
+    energy = diag["kinetic_energy"] + diag["potential_energy"]
+    np.testing.assert_allclose(b["total_loss"], energy[0] - energy, atol=1e-14)
+    np.testing.assert_allclose(b["drag"] + b["collision"] + b["correction"] + b["residual"], b["total_loss"], atol=1e-14)
+    np.testing.assert_allclose(
+        b["kinetic"] + b["drag"] + b["collision"] + b["correction"] + b["residual"], b["released"], atol=1e-14
+    )
+    np.testing.assert_allclose(b["released"], diag["potential_energy"][0] - diag["potential_energy"], atol=0)
+
+
+def test_grouping_by_differing_keys():
+    base = stats.flatten_scene(from_dict({"shelf": {"count": 3}}).source)
+    other = {**base, "time.seed": 7, "time.duration": 5.0, "contacts.discs": 12}
+    third = {**base, "shelf.thickness_std": 0.1}
+    keys = stats.differing_keys([base, other, third])
+    assert keys == ["contacts.discs", "shelf.thickness_std"]
+    groups = stats.group_by_keys([base, other, third, dict(base)], keys)
+    assert list(groups.values()) == [[1], [0, 3], [2]]  # sorted by value: discs 12 before 28
+    assert stats.group_label((("contacts.discs", 12),)) == "contacts.discs = 12"
+    assert stats.group_label(()) == "all runs"
+
+
+def test_disc_layout_matches_the_model():
+    """The numpy disc layout used for drawing is the Taichi one (contacts.disc_local)."""
+    import taichi as ti
+
+    from melange_ti.analysis.render import disc_local
+    from melange_ti.physics.contacts import disc_local as ti_disc_local
+    from melange_ti.scene import disc_radius
+
+    discs, w, h = 28, 1.0, 1.4
+    r = float(disc_radius(w, h, discs))
+    out = ti.Vector.field(2, ti.f64, shape=discs)
+
+    @ti.kernel
+    def fill(k: ti.i32, hw: ti.f64, hh: ti.f64, rr: ti.f64):
+        for a in range(discs):
+            out[a] = ti_disc_local(a, k, hw, hh, rr)
+
+    fill(discs // 4, 0.5 * w, 0.5 * h, r)
+    local, radius = disc_local([w], [h], discs)
+    np.testing.assert_allclose(local[0], out.to_numpy(), atol=1e-14)
+    assert radius[0] == pytest.approx(r)
+    # the union of discs is tangent to the faces
+    assert np.max(local[0, :, 0]) + r == pytest.approx(0.5 * w)
+    assert np.max(local[0, :, 1]) + r == pytest.approx(0.5 * h)
+
+
+# ---------------------------------------------------------------------------------------
+# Hand-made run files through the figure code
+
+
+def test_hand_runs_ensemble_and_summary(hand_runs, tmp_path):
+    from melange_ti.analysis import figures
+
+    runs = [figures.load_run(p) for p in hand_runs]
+    groups = figures.make_groups(runs)
+    assert len(groups) == 1 and groups[0].label == "all runs"  # seeds and durations differ only
+    ens = groups[0].series("capsized_fraction")
+    np.testing.assert_allclose(ens.mean, MEAN, atol=1e-15)
+    np.testing.assert_allclose(ens.std, STD, atol=1e-15)
+    edge = groups[0].series("leading_edge")
+    np.testing.assert_allclose(edge.mean, 1.5 * T_B, atol=1e-15)
+    row = figures.summary_rows(groups)[0]
+    assert row["runs"] == 2 and row["t_end"] == 3.0
+    assert row["t_50"] == pytest.approx(2.0) and row["t_90"] == pytest.approx(2.8)
+    assert row["leading_edge_end"] == pytest.approx(4.5) and row["leading_edge_end_std"] == pytest.approx(1.5)
+    # energy terms of run A, by hand: E = [10, 9.5, 8.25, 7.625, 7]
+    _, terms = figures.energy_terms(figures.Group((), "A", runs[:1]))
+    np.testing.assert_allclose(terms["released"].mean, [0, 1, 2, 2.5, 3])
+    np.testing.assert_allclose(terms["total_loss"].mean, [0, 0.5, 1.75, 2.375, 3])
+    np.testing.assert_allclose(terms["residual"].mean, [0, 0.125, 0.125, 0.0, 0.0], atol=1e-15)
+
+
+def test_thickness_spread_figure(hand_runs, tmp_path):
+    from melange_ti.analysis import figures
+
+    c = write_run(
+        tmp_path / "c.h5",
+        seed=3,
+        snaps=SNAP_B,
+        thickness_std=0.05,
+        diag={"time": T_B, "capsized_fraction": F_B[::-1].copy(), "leading_edge": T_B},
+    )
+    out = tmp_path / "figs"
+    written = figures.plot([*hand_runs, c], out, times=[0, 2], names={"capsized_fraction_by_thickness_std"})
+    assert [p.name for p in written] == [
+        "capsized_fraction_by_thickness_std.png",
+        "capsized_fraction_by_thickness_std.pdf",
+        "summary.csv",
+    ]
+    assert_png(out / "capsized_fraction_by_thickness_std.png")
+    groups = [row.split(",")[:2] for row in (out / "summary.csv").read_text().splitlines()[1:]]
+    assert groups == [["shelf.thickness_std = 0", "2"], ["shelf.thickness_std = 0.05", "1"]]
+    # with one spread only, no such figure
+    assert figures.plot(hand_runs, tmp_path / "one", names={"capsized_fraction_by_thickness_std"})[0].name == "summary.csv"
+
+
+# ---------------------------------------------------------------------------------------
+# Commands end to end on real runs
+
+
+def test_plot_real_runs(real_runs, tmp_path, capsys):
+    out = tmp_path / "figs"
+    assert cli(["plot", *real_runs, "--out", str(out), "--width-m", "100"]) == 0
+    text = capsys.readouterr().out
+    assert "contacts.discs = 12: 1 run(s)" in text and "contacts.discs = 28: 1 run(s)" in text
+    for name in (
+        "fig2_snapshots",
+        "fig3_capsized_fraction",
+        "fig4_leading_edge",
+        "fig5_capsized_by_position",
+        "energy_budget",
+        "impulse_rate_wall_force",
+    ):
+        assert_png(out / f"{name}.png")
+        pdf = out / f"{name}.pdf"
+        assert pdf.read_bytes()[:5] == b"%PDF-" and pdf.stat().st_size > 2000
+    assert not (out / "capsized_fraction_by_thickness_std.png").exists()  # one spread only
+    rows = (out / "summary.csv").read_text().splitlines()
+    assert rows[0].startswith("group,runs,") and len(rows) == 3
+
+
+def test_energy_terms_of_a_real_run_sum_to_recorded_total(real_runs):
+    from melange_ti.io.hdf5 import read_run
+
+    d = read_run(real_runs[0])["diagnostics"]
+    b = stats.energy_budget(d)
+    energy = d["kinetic_energy"] + d["potential_energy"]
+    total = energy[0] - energy
+    np.testing.assert_allclose(b["drag"] + b["collision"] + b["correction"] + b["residual"], total, atol=1e-12)
+    np.testing.assert_allclose(
+        b["kinetic"] + b["drag"] + b["collision"] + b["correction"] + b["residual"], b["released"], atol=1e-12
+    )
+    assert b["released"][-1] > 0  # the tilted icebergs do fall
+
+
+def test_render_mp4_and_frames(real_runs, tmp_path):
+    movie = tmp_path / "run.mp4"
+    assert cli(["render", real_runs[1], "--out", str(movie), "--discs", "--every", "2", "--fps", "10"]) == 0
+    head = movie.read_bytes()[:12]
+    assert movie.stat().st_size > 5000 and head[4:8] == b"ftyp"
+    frames = tmp_path / "frames"
+    assert cli(["render", real_runs[0], "--out", str(frames), "--every", "3"]) == 0
+    names = sorted(p.name for p in frames.glob("*.png"))
+    assert names == [f"frame_{k:05d}.png" for k in range(4)]  # snapshots 0, 3, 6 and the last (8)
+    assert_png(frames / "frame_00000.png", min_kb=5)
+
+
+# ---------------------------------------------------------------------------------------
+# User errors: one line, exit status 2
+
+
+def _one_line_error(capsys, argv) -> str:
+    assert cli(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("melange-ti: error: ") and "\n" not in err, err
+    return err
+
+
+def test_errors_are_one_line(hand_runs, tmp_path, capsys):
+    missing = str(tmp_path / "nope.h5")
+    assert "not found" in _one_line_error(capsys, ["plot", missing, "--out", str(tmp_path / "o")])
+    assert "not found" in _one_line_error(capsys, ["render", missing, "--out", str(tmp_path / "o.mp4")])
+    text = tmp_path / "text.h5"
+    text.write_text("hello")
+    _one_line_error(capsys, ["plot", str(text), "--out", str(tmp_path / "o")])
+    _one_line_error(capsys, ["render", str(text), "--out", str(tmp_path / "o")])
+    empty = tmp_path / "empty.h5"  # a run that has not written anything yet
+    RunWriter(empty, attrs={"scene_toml": scene_toml()}, constants={"width": np.ones(4), "thickness": np.ones(4)}).close()
+    assert "no snapshots" in _one_line_error(capsys, ["render", str(empty), "--out", str(tmp_path / "o")])
+    assert "no snapshots" in _one_line_error(capsys, ["plot", str(empty), "--out", str(tmp_path / "o")])
+    bare = tmp_path / "bare.h5"  # HDF5, but not a run file
+    with h5py.File(bare, "w") as f:
+        f["data"] = np.zeros(3)
+    assert "not a readable melange_ti run" in _one_line_error(capsys, ["plot", str(bare), "--out", str(tmp_path / "o")])
+    assert "--times" in _one_line_error(capsys, ["plot", hand_runs[0], "--out", str(tmp_path / "o"), "--times", "1,x"])
+    assert "after the last snapshot" in _one_line_error(
+        capsys, ["plot", *hand_runs, "--out", str(tmp_path / "o"), "--times", "9"]
+    )
+    assert "--width-m" in _one_line_error(capsys, ["plot", hand_runs[0], "--out", str(tmp_path / "o"), "--width-m", "-3"])
+    assert "FILE.mp4" in _one_line_error(capsys, ["render", hand_runs[0], "--out", str(tmp_path / "movie.gif")])
+    assert "--every" in _one_line_error(capsys, ["render", hand_runs[0], "--out", str(tmp_path / "d"), "--every", "0"])
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    assert "cannot create" in _one_line_error(capsys, ["plot", hand_runs[0], "--out", str(blocker / "sub")])
