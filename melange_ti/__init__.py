@@ -5,4 +5,12 @@ hydrostatic buoyancy, linear drag and impulse-based collisions found through dis
 representations, on Taichi (CPU by default). See SPEC.md for units and the file format.
 """
 
+import os
+
+# Before Taichi is imported anywhere: no banner on stdout, and no Python print buffer, which
+# Taichi enables whenever sys.stdout is not the real stdout (pytest, Jupyter) and which
+# slows every kernel call many times over.
+os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
+os.environ.setdefault("TI_ENABLE_PYBUF", "0")
+
 __version__ = "0.1.0"

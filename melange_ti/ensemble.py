@@ -9,7 +9,7 @@ Plan, validate, then run:
    unfinished with a checkpoint -> resumed; unfinished without one (or unreadable) ->
    overwritten. A file holding a *different* scene's results is refused up front.
    Input problems raise :class:`~melange_ti.scene.SceneError` or
-   :class:`~melange_ti.simulation.RunError` (one line, exit status 2), and no file is written.
+   :class:`~melange_ti.errors.RunError` (one line, exit status 2), and no file is written.
 2. ``DIR/ensemble.json`` lists every run (file, seed, overrides); it is rewritten at the
    end with each run's status.
 3. The runs go to Dask workers: a ``LocalCluster`` of spawned single-threaded worker
@@ -169,11 +169,12 @@ def _labels(axes: list[Axis]) -> dict[str, tuple[str, list[str]]]:
     swept = [a for a in axes if a.swept]
     leaves = [a.key.split(".")[-1] for a in swept]
     out = {}
-    for axis, leaf in zip(swept, leaves):
+    for axis, leaf in zip(swept, leaves, strict=True):
         label = _sanitize(leaf if leaves.count(leaf) == 1 else axis.key)
         tokens = [_sanitize(_token(v)) for v in axis.values]
         if len(set(tokens)) < len(tokens):  # distinct values, same sanitised text
-            tokens = [f"{t}~{hashlib.sha1(_json_value(v).encode()).hexdigest()[:6]}" for t, v in zip(tokens, axis.values)]
+            digests = [hashlib.sha1(_json_value(v).encode()).hexdigest()[:6] for v in axis.values]
+            tokens = [f"{t}~{d}" for t, d in zip(tokens, digests, strict=True)]
         out[axis.key] = (label, tokens)
     return out
 
@@ -184,12 +185,14 @@ def plan(axes: list[Axis], seeds: int) -> list[RunSpec]:
     choices = [list(enumerate(a.values)) for a in axes]
     runs = []
     for combo in itertools.product(*choices):
-        overrides = [(a.key, v) for a, (_, v) in zip(axes, combo)]
-        swept = [(a.key, v) for a, (_, v) in zip(axes, combo) if a.swept]
-        stem = "_".join(f"{labels[a.key][0]}={labels[a.key][1][k]}" for a, (k, _) in zip(axes, combo) if a.swept)
+        overrides = [(a.key, v) for a, (_, v) in zip(axes, combo, strict=True)]
+        swept = [(a.key, v) for a, (_, v) in zip(axes, combo, strict=True) if a.swept]
+        stem = "_".join(f"{labels[a.key][0]}={labels[a.key][1][k]}" for a, (k, _) in zip(axes, combo, strict=True) if a.swept)
         for seed in range(1, seeds + 1):
             name = f"{stem}_seed{seed}.h5" if stem else f"seed{seed}.h5"
             runs.append(RunSpec(file=name, seed=seed, overrides=overrides, swept=swept))
+    if len({r.file for r in runs}) != len(runs):  # cannot happen with the labels above; never overwrite a twin
+        raise scn.SceneError("--set: the swept values do not give distinct file names")
     return runs
 
 
@@ -240,8 +243,8 @@ def _read_state(path: Path) -> tuple[str | None, bool] | None:
 
 def classify(out_dir: Path, runs: list[RunSpec], resolved: dict[str, str]) -> None:
     """Decide each run's action from what DIR holds; refuse files of a different scene."""
+    from .errors import RunError
     from .io.checkpoint import checkpoint_path
-    from .simulation import RunError
 
     for r in runs:
         path = out_dir / r.file
@@ -365,12 +368,11 @@ def _run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, a
 
 # ---------------------------------------------------------------------------- client side
 def _error_line(exc: BaseException) -> str:
+    from .errors import ArchError, ContactOverflow, NumericalError, RunError
     from .io.hdf5 import OutputError
-    from .model import ContactOverflow
-    from .simulation import NumericalError, RunError
 
     text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-    if isinstance(exc, (scn.SceneError, RunError, NumericalError, ContactOverflow, OutputError)):
+    if isinstance(exc, (scn.SceneError, RunError, ArchError, NumericalError, ContactOverflow, OutputError)):
         return text or exc.__class__.__name__
     return f"{exc.__class__.__name__}: {text}" if text else exc.__class__.__name__
 
@@ -381,7 +383,7 @@ def _cluster(scheduler: str | None, workers: int):
     import dask
     from distributed import Client, LocalCluster
 
-    from .simulation import RunError
+    from .errors import RunError
 
     # Read whenever a nanny (re)starts a worker process, so it must hold for the whole
     # lifetime: a forked child of a process that ran ti.init hangs (FACTS.md).
@@ -421,9 +423,8 @@ def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec]) -> None:
     tag = uuid.uuid4().hex[:8]
     futures = {}
     for r in todo:
-        fut = client.submit(
-            run_one, text, r.overrides, r.seed, str(out_dir / r.file), r.action, key=f"melange-ti-{r.file}-{tag}", pure=False, retries=0
-        )
+        args = (text, r.overrides, r.seed, str(out_dir / r.file), r.action)
+        fut = client.submit(run_one, *args, key=f"melange-ti-{r.file}-{tag}", pure=False, retries=0)
         futures[fut] = r
     bar = None
     if sys.stderr.isatty():
@@ -480,7 +481,10 @@ def report(runs: list[RunSpec], out_dir: Path, where: str, wall: float) -> None:
         if r.status == "failed":
             tail = "FAILED"
         else:
-            note = "already complete" if r.status == "skipped" else ("resumed, " if s.get("resumed") else "") + f"{s.get('wall_seconds', 0):.1f} s"
+            if r.status == "skipped":
+                note = "already complete"
+            else:
+                note = ("resumed, " if s.get("resumed") else "") + f"{s.get('wall_seconds', 0):.1f} s"
             tail = (
                 f"t = {_fmt(s.get('time'), 'g')}, capsized fraction {_fmt(s.get('capsized_fraction'), '.3f')}, "
                 f"leading edge {_fmt(s.get('leading_edge'), '.3f')} widths ({note})"
@@ -493,7 +497,7 @@ def report(runs: list[RunSpec], out_dir: Path, where: str, wall: float) -> None:
 
 def main(args) -> int:
     """The ``ensemble`` subcommand; returns the exit status (0, or 3 if any run failed)."""
-    from .simulation import RunError
+    from .errors import RunError
 
     t0 = wallclock.perf_counter()
     if args.seeds < 1:

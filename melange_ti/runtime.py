@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 
 import taichi as ti
@@ -15,25 +17,27 @@ def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", 
     """Initialise Taichi for ``arch`` ("cpu" or "gpu") and return the backend's name.
 
     ``threads`` caps the CPU backend's threads (default: all hardware threads). Results do
-    not depend on it. A second call with the same settings does nothing; with other
-    settings it re-initialises Taichi, invalidating every existing model.
+    not depend on it. A second call with the same settings (or ``threads=None`` and the same
+    others) does nothing; with other settings it re-initialises Taichi, invalidating every
+    existing model.
     """
     global _current
     key = (arch, threads, precision, debug)
-    if _current is not None and _current[0] == key:
-        return _current[1]
+    if _current is not None:
+        same = _current[0]
+        if same == key or (threads is None and (same[0], same[2], same[3]) == (arch, precision, debug)):
+            return _current[1]
     fp = ti.f32 if precision == "f32" else ti.f64
     kwargs = dict(default_fp=fp, default_ip=ti.i32, debug=debug, log_level=ti.WARN)
     if threads is not None:
         kwargs["cpu_max_num_threads"] = int(threads)
-    if arch == "cpu":
-        ti.init(arch=ti.cpu, **kwargs)
-    elif arch == "gpu":
-        ti.init(arch=ti.gpu, **kwargs)
+    if arch not in ("cpu", "gpu"):
+        raise ArchError(f"--arch {arch!r}: must be cpu or gpu")
+    with contextlib.redirect_stdout(io.StringIO()):  # ti.init prints its backend on stdout
+        ti.init(arch=ti.cpu if arch == "cpu" else ti.gpu, **kwargs)
+    if arch == "gpu":
         if ti.lang.impl.current_cfg().arch in (ti.x64, ti.arm64):
             raise ArchError("--arch gpu: no GPU backend is available on this machine (Taichi fell back to the CPU)")
-    else:
-        raise ArchError(f"--arch {arch!r}: must be cpu or gpu")
     name = str(ti.lang.impl.current_cfg().arch).split(".")[-1]
     _current = (key, name)
     return name

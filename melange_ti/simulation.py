@@ -99,6 +99,8 @@ class Simulation:
             if not self.out.exists():
                 raise RunError(f"--resume: {self.out} does not exist")
             return
+        if self.out.is_dir():
+            raise RunError(f"--out {self.out}: is a directory")
         if self.out.exists() and not self.overwrite:
             raise RunError(f"--out {self.out}: file exists (use --overwrite to replace it, --resume to continue it)")
         parent = self.out.parent if str(self.out.parent) else Path(".")
