@@ -52,6 +52,14 @@ def _dt_overrides(dt: float, duration: float) -> list[tuple[str, object]]:
     ]
 
 
+def _contact_overflow() -> type:
+    try:
+        from .errors import ContactOverflow
+    except ImportError:  # older layout
+        from .model import ContactOverflow
+    return ContactOverflow
+
+
 def _sync() -> None:
     import taichi as ti
 
@@ -68,8 +76,9 @@ def _finite(sample: dict) -> bool:
 
 
 # ---------------------------------------------------------------------------- paper scene
-def paper_scene(n: int, precision: str, dt: float, duration: float, discs: int = 28, passes: int = 1, seed: int = 1,
-                extra: list | None = None):
+def paper_scene(
+    n: int, precision: str, dt: float, duration: float, discs: int = 28, passes: int = 1, seed: int = 1, extra: list | None = None
+):
     from . import scene
 
     ov = [
@@ -85,6 +94,8 @@ def paper_scene(n: int, precision: str, dt: float, duration: float, discs: int =
 
 
 _MODELS: dict = {}
+_PRISTINE: dict = {}
+STATE = ("x", "z", "theta", "vx", "vz", "omega")
 
 
 def _model_key(sc, mode: str):
@@ -109,6 +120,7 @@ def model_for(sc, mode: str = "auto"):
     model = _MODELS.get(key)
     if model is None:
         model = _MODELS[key] = Model(sc, mode=mode)
+        _PRISTINE[id(model)] = model.accumulators()  # counters (and any parameters kept with them) as built
     else:
         _reset(model, sc.icebergs())
     return model
@@ -121,17 +133,16 @@ def forget(model) -> None:
 
 
 def _reset(model, bergs) -> None:
-    """Start ``model`` again from the initial state ``bergs`` with zeroed counters."""
-    from .model import STATE
-
+    """Start ``model`` again from the initial state ``bergs`` with its counters as built."""
     model.set_state({k: getattr(bergs, k) for k in STATE})
-    model.set_accumulators({k: np.zeros_like(v) for k, v in model.accumulators().items()})
+    model.set_accumulators({k: np.copy(v) for k, v in _PRISTINE[id(model)].items()})
 
 
 def task_paper(t: dict, precision: str) -> dict:
     """One configuration, every seed in ``seeds``; one compiled model reused across seeds."""
     from . import diagnostics as dg
-    from .model import ContactOverflow
+
+    ContactOverflow = _contact_overflow()
 
     dt = float(t["dt"])
     seeds = [int(v) for v in t.get("seeds", [t.get("seed", 1)])]
@@ -173,15 +184,37 @@ def task_paper(t: dict, precision: str) -> dict:
             le.append(dg.leading_edge(s["x"], x0))
             energy.append(_energy(s))
         cost = wall / (timed_steps * dt) if timed_steps else float("nan")
-        runs.append({"seed": seed, "t": times, "cf": cf, "le": le, "energy": energy, "cost": cost, "steps": step,
-                     "ok": ok, "error": error})
-    return {"runs": runs, "mode": model.mode if model is not None else "", "ok": all(r["ok"] for r in runs),
-            "error": "; ".join(f"seed {r['seed']}: {r['error']}" for r in runs if r["error"])}
+        runs.append(
+            {
+                "seed": seed,
+                "t": times,
+                "cf": cf,
+                "le": le,
+                "energy": energy,
+                "cost": cost,
+                "steps": step,
+                "ok": ok,
+                "error": error,
+            }
+        )
+    return {
+        "runs": runs,
+        "mode": model.mode if model is not None else "",
+        "ok": all(r["ok"] for r in runs),
+        "error": "; ".join(f"seed {r['seed']}: {r['error']}" for r in runs if r["error"]),
+    }
 
 
 # ---------------------------------------------------------------------------- one iceberg
-def single_scene(precision: str, dt: float, duration: float, bergs: list[dict], effects: list[str],
-                 drag: float = 0.01, density_ratio: float = R_DEFAULT):
+def single_scene(
+    precision: str,
+    dt: float,
+    duration: float,
+    bergs: list[dict],
+    effects: list[str],
+    drag: float = 0.01,
+    density_ratio: float = R_DEFAULT,
+):
     from . import scene
 
     doc = {
@@ -302,8 +335,11 @@ def _scan(test, ladder: list[float], refine: int) -> dict:
                 lo = mid
             else:
                 hi = mid
-    return {"largest_stable": lo if lo is not None else float("nan"), "first_unstable": hi if hi is not None else float("nan"),
-            "tried": tried}
+    return {
+        "largest_stable": lo if lo is not None else float("nan"),
+        "first_unstable": hi if hi is not None else float("nan"),
+        "tried": tried,
+    }
 
 
 def task_stable_single(t: dict, precision: str) -> dict:
@@ -366,7 +402,8 @@ def task_stable_paper(t: dict, precision: str) -> dict:
     """The paper scene: unstable = non-finite, contact overflow, or the total energy rising
     above its initial value by more than ``rise`` x (N x the energy of one capsize)."""
     from . import diagnostics as dg
-    from .model import ContactOverflow
+
+    ContactOverflow = _contact_overflow()
 
     n = int(t["n"])
     duration = float(t["duration"])
@@ -448,8 +485,11 @@ def run_job(job: dict, result_path: Path) -> int:
         tmp = result_path.with_suffix(".tmp")
         tmp.write_text(json.dumps(results))
         tmp.replace(result_path)
-        print(f"bench_worker[{precision}]: {task['kind']} {task.get('label', '')} done in {res['seconds']:.1f} s",
-              file=sys.stderr, flush=True)
+        print(
+            f"bench_worker[{precision}]: {task['kind']} {task.get('label', '')} done in {res['seconds']:.1f} s",
+            file=sys.stderr,
+            flush=True,
+        )
     return 1 if failed else 0
 
 

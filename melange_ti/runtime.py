@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import io
-import os
 
 import taichi as ti
 
@@ -42,6 +41,3 @@ def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", 
     _current = (key, name)
     return name
 
-
-def default_threads() -> int:
-    return os.cpu_count() or 1
