@@ -191,8 +191,12 @@ class Model:
     def _step_parallel(self) -> None:
         S.kick_all(self.fx, self.b, self.par)
         if self.contacts:
-            self._detect()
-            S.impulses(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc, self.ipar)
+            for _ in range(L.MAX_DETECT):
+                self._detect()
+                S.impulses(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc, self.ipar)
+                S.check_reach(self.b, self.par, self.ipar)
+                if not self.ipar[L.GROWN]:
+                    break
         S.drift_all(self.b, self.par)
         if self.contacts:
             S.correct(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc)

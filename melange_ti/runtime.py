@@ -27,7 +27,8 @@ def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", 
         if same == key or (threads is None and (same[0], same[2], same[3]) == (arch, precision, debug)):
             return _current[1]
     fp = ti.f32 if precision == "f32" else ti.f64
-    kwargs = dict(default_fp=fp, default_ip=ti.i32, debug=debug, log_level=ti.WARN)
+    # fast_math off: otherwise the serial and parallel kernels may round differently
+    kwargs = dict(default_fp=fp, default_ip=ti.i32, debug=debug, log_level=ti.WARN, fast_math=False)
     if threads is not None:
         kwargs["cpu_max_num_threads"] = int(threads)
     if arch not in ("cpu", "gpu"):

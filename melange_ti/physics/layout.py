@@ -40,5 +40,9 @@ ACC_COLLISION, ACC_CORRECTION, ACC_WALL_IMPULSE, ACC_IMPULSE = 0, 1, 2, 3
 NA = 4
 
 # ipar (i64)
-N, K, SLOTS, PASSES, NCELLS, DISCS, CONTACTS, OVERFLOW = 0, 1, 2, 3, 4, 5, 6, 7
-NQ = 8
+N, K, SLOTS, PASSES, NCELLS, DISCS, CONTACTS, OVERFLOW, GROWN = 0, 1, 2, 3, 4, 5, 6, 7, 8
+NQ = 9
+
+# Bounds on the iterations inside one step (see physics.step).
+MAX_DETECT = 16  # detect + impulses again while an impulse made some body outrun its reach
+MAX_CORRECT = 8  # correction sweeps while some overlap is still being pushed apart

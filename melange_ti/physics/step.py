@@ -18,11 +18,16 @@ Phases (semi-implicit Euler, velocities first):
                  A contact is kept if its gap may close within this step (speculative
                  contacts: no tunnelling at any speed).
 5. ``impulses``  sequential, fixed order: body i ascending, its wall contact first, then its
-                 partners j > i ascending; repeated ``contact_passes`` times.
+                 partners j > i ascending; repeated ``contact_passes`` times. If an impulse
+                 made some body faster than the reach it was searched with (a struck
+                 iceberg in a packed row), phases 2-5 run again with the new velocities
+                 (at most ``MAX_DETECT`` times), so chains cannot tunnel.
 6. ``drift``     x += dt v, theta += dt omega.
 7. ``correct``   sequential, same order: the overlap left after the drift (estimated from
                  the contact gap, the final velocities and earlier pushes) is removed along
                  the normal, split by inverse mass; its potential-energy change is booked.
+                 Sweeps repeat (at most ``MAX_CORRECT``) until none pushes, so a push that
+                 drives a body back into the wall or a third body is undone too.
 """
 
 import taichi as ti
@@ -51,9 +56,12 @@ from .layout import (
     DRAG_WORK,
     DT,
     FILL,
+    GROWN,
     INERTIA,
     KINETIC,
     MASS,
+    MAX_CORRECT,
+    MAX_DETECT,
     NCELLS,
     NCONTACT,
     OM,
@@ -129,6 +137,13 @@ def body_energy(fx: ti.template(), b: ti.template(), par: ti.template(), i):
     return potential_energy(
         b[i, Z], b[i, TH], 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], b[i, MASS], par[WATER], ti.static(fx.gravity), ti.static(fx.buoyancy)
     )
+
+
+@ti.func
+def outran(b: ti.template(), par: ti.template(), i):
+    """1 if body i now moves farther this step than the reach it was searched with."""
+    r = par[DT] * (ti.sqrt(b[i, VX] ** 2 + b[i, VZ] ** 2) + ti.abs(b[i, OM]) * b[i, BOUND])
+    return ti.cast(r > b[i, REACH] * (1.0 + 1e-9) + 1e-12, ti.i32)
 
 
 # ---------------------------------------------------------------- broad phase
@@ -266,13 +281,21 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
                         nv += w * dv / dist
                         gap = ti.min(gap, g)
     if wsum > 0:
-        nn = ti.sqrt(nu * nu + nv * nv)
-        if nn > 0:
-            qu = pu / wsum
-            qv = pv / wsum
-            insert_contact(
-                bi, cd, cp, ipar, i, j, xj + qu * cj - qv * sj, zj + qu * sj + qv * cj, (nu * cj - nv * sj) / nn, (nu * sj + nv * cj) / nn, gap
-            )
+        qu = pu / wsum
+        qv = pv / wsum
+        nx = nu * cj - nv * sj
+        nz = nu * sj + nv * cj
+        nn = ti.sqrt(nx * nx + nz * nz)
+        if nn <= 1e-12 * wsum:
+            # symmetric overlap: the disc normals cancel; push along the centre line instead
+            nx = xi - xj
+            nz = zi - zj
+            nn = ti.sqrt(nx * nx + nz * nz)
+            if nn <= 0:
+                nx = 1.0
+                nz = 0.0
+                nn = 1.0
+        insert_contact(bi, cd, cp, ipar, i, j, xj + qu * cj - qv * sj, zj + qu * sj + qv * cj, nx / nn, nz / nn, gap)
 
 
 @ti.func
@@ -403,7 +426,9 @@ def push(fx: ti.template(), b: ti.template(), par: ti.template(), acc: ti.templa
         inv2 = 1.0 / b[j, MASS]
         moved -= b[j, SHIFT_X] * nx + b[j, SHIFT_Z] * nz
     g = gap + dt * normal_speed(b, i, j, rx1, rz1, rx2, rz2, nx, nz) + moved
-    if g < 0:
+    pushed = 0
+    if g < -1e-12:
+        pushed = 1
         depth = -g
         u0 = body_energy(fx, b, par, i)
         s1 = depth * inv1 / (inv1 + inv2)
@@ -421,6 +446,7 @@ def push(fx: ti.template(), b: ti.template(), par: ti.template(), acc: ti.templa
             b[j, SHIFT_Z] -= s2 * nz
             du += body_energy(fx, b, par, j) - u0
         acc[ACC_CORRECTION] -= du
+    return pushed
 
 
 @ti.func
@@ -444,13 +470,19 @@ def correction_pass(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: 
     for i in range(n):
         b[i, SHIFT_X] = 0.0
         b[i, SHIFT_Z] = 0.0
-    for i in range(n):
-        if ti.static(fx.wall):
-            if bi[i, WALL_ON]:
-                push(fx, b, par, acc, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
-        if ti.static(fx.collisions):
-            for s in range(bi[i, NCONTACT]):
-                push(fx, b, par, acc, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
+    for _sweep in range(MAX_CORRECT):
+        pushed = 0
+        for i in range(n):
+            if ti.static(fx.wall):
+                if bi[i, WALL_ON]:
+                    pushed += push(fx, b, par, acc, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
+            if ti.static(fx.collisions):
+                for s in range(bi[i, NCONTACT]):
+                    pushed += push(
+                        fx, b, par, acc, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP]
+                    )
+        if pushed == 0:
+            break
 
 
 # ---------------------------------------------------------------- kernels
@@ -463,25 +495,31 @@ def steps_serial(fx: ti.template(), steps: ti.i32, b: arr, bi: arr, cd: arr, cp:
         for i in range(n):
             kick(fx, b, par, i)
         if ti.static(fx.collisions or fx.wall):
-            rmax = 0.0
-            for i in range(n):
-                rmax = ti.max(rmax, reach(b, par, i))
-            par[REACH_MAX] = rmax
-            size = cell_size(par)
-            if ti.static(fx.collisions):
-                ncells = ipar[NCELLS]
+            for _attempt in range(MAX_DETECT):
+                rmax = 0.0
                 for i in range(n):
-                    c = cell_of(b[i, X], size, ncells)
-                    bi[i, CELL] = c
-                    cells[c, COUNT] += 1
-                scan_cells(cells, ncells)
+                    rmax = ti.max(rmax, reach(b, par, i))
+                par[REACH_MAX] = rmax
+                size = cell_size(par)
+                if ti.static(fx.collisions):
+                    ncells = ipar[NCELLS]
+                    for i in range(n):
+                        c = cell_of(b[i, X], size, ncells)
+                        bi[i, CELL] = c
+                        cells[c, COUNT] += 1
+                    scan_cells(cells, ncells)
+                    for i in range(n):
+                        c = bi[i, CELL]
+                        bi[cells[c, FILL], SORTED] = i
+                        cells[c, FILL] += 1
                 for i in range(n):
-                    c = bi[i, CELL]
-                    bi[cells[c, FILL], SORTED] = i
-                    cells[c, FILL] += 1
-            for i in range(n):
-                detect(fx, b, bi, cd, cp, cells, par, ipar, i, size)
-            impulse_pass(fx, b, bi, cd, cp, par, acc, ipar)
+                    detect(fx, b, bi, cd, cp, cells, par, ipar, i, size)
+                impulse_pass(fx, b, bi, cd, cp, par, acc, ipar)
+                grown = 0
+                for i in range(n):
+                    grown += outran(b, par, i)
+                if grown == 0:
+                    break
         for i in range(n):
             drift(b, par, i)
         if ti.static(fx.collisions or fx.wall):
@@ -538,6 +576,14 @@ def impulses(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, acc
     ti.loop_config(serialize=True)
     for _ in range(1):
         impulse_pass(fx, b, bi, cd, cp, par, acc, ipar)
+
+
+@ti.kernel
+def check_reach(b: arr, par: arr, ipar: arr):
+    ipar[GROWN] = 0
+    for i in range(b.shape[0]):
+        if outran(b, par, i):
+            ipar[GROWN] = 1
 
 
 @ti.kernel
