@@ -181,6 +181,7 @@ class Model:
             )
 
     def _detect(self) -> None:
+        S.speed_all(self.b, self.par)
         S.reach_all(self.b, self.par)
         if self.fx.collisions:
             S.bin_count(self.b, self.bi, self.cells, self.par, self.ipar)
@@ -191,15 +192,18 @@ class Model:
     def _step_parallel(self) -> None:
         S.kick_all(self.fx, self.b, self.par)
         if self.contacts:
+            redetect = True
             for _ in range(L.MAX_DETECT):
-                self._detect()
+                if redetect:
+                    self._detect()
                 S.impulses(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc, self.ipar)
-                S.check_reach(self.b, self.par, self.ipar)
-                if not self.ipar[L.GROWN]:
+                S.check_reach(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.ipar)
+                redetect = bool(self.ipar[L.GROWN])
+                if not redetect and not self.ipar[L.DEEP]:
                     break
         S.drift_all(self.b, self.par)
         if self.contacts:
-            S.correct(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc)
+            S.correct(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc, self.ipar)
 
     def contact_pairs(self) -> tuple[list[tuple[int, int]], list[int]]:
         """Contacts the next step would consider, without changing the state.

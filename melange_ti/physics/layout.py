@@ -15,14 +15,14 @@ X, Z, TH, VX, VZ, OM = 0, 1, 2, 3, 4, 5
 # bodies: constants
 WIDTH, THICK, MASS, INERTIA, RADIUS, BOUND = 6, 7, 8, 9, 10, 11
 # bodies: per-step scratch and per-body accumulators
-REACH, COS, SIN, DRAG_WORK, SHIFT_X, SHIFT_Z, WALL_PZ, WALL_GAP, KINETIC, POTENTIAL = 12, 13, 14, 15, 16, 17, 18, 19, 20, 21
-NB = 22
+REACH, COS, SIN, DRAG_WORK, SHIFT_X, SHIFT_Z, WALL_PZ, WALL_GAP, KINETIC, POTENTIAL, MOTION = 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22
+NB = 23
 STATE_COLS = {"x": X, "z": Z, "theta": TH, "vx": VX, "vz": VZ, "omega": OM}
 CONST_COLS = {"width": WIDTH, "thickness": THICK, "mass": MASS, "inertia": INERTIA, "radius": RADIUS, "bound": BOUND}
 
 # ints
-CELL, NCONTACT, WALL_ON, SORTED = 0, 1, 2, 3
-NI = 4
+CELL, NCONTACT, WALL_ON, SORTED, PUSHED = 0, 1, 2, 3, 4
+NI = 5
 
 # cdata
 CPX, CPZ, CNX, CNZ, CGAP = 0, 1, 2, 3, 4
@@ -32,17 +32,19 @@ NC = 5
 COUNT, START, FILL = 0, 1, 2
 
 # par (real)
-DT, RESTITUTION, DRAG_LIN, DRAG_ANG, WATER, WALL_X, BOUND_MAX, REACH_MAX = 0, 1, 2, 3, 4, 5, 6, 7
-NP = 8
+DT, RESTITUTION, DRAG_LIN, DRAG_ANG, WATER, WALL_X, BOUND_MAX, REACH_MAX, SPEED_MAX = 0, 1, 2, 3, 4, 5, 6, 7, 8
+NP = 9
 
 # acc (f64)
 ACC_COLLISION, ACC_CORRECTION, ACC_WALL_IMPULSE, ACC_IMPULSE = 0, 1, 2, 3
 NA = 4
 
 # ipar (i64)
-N, K, SLOTS, PASSES, NCELLS, DISCS, CONTACTS, OVERFLOW, GROWN = 0, 1, 2, 3, 4, 5, 6, 7, 8
-NQ = 9
+N, K, SLOTS, PASSES, NCELLS, DISCS, CONTACTS, OVERFLOW, GROWN, DEEP = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9
+NQ = 10
 
 # Bounds on the iterations inside one step (see physics.step).
-MAX_DETECT = 16  # detect + impulses again while an impulse made some body outrun its reach
-MAX_CORRECT = 8  # correction sweeps while some overlap is still being pushed apart
+MAX_DETECT = 16  # impulse passes again while a contact would still close by > DEEP_FRACTION r,
+#                  detecting again first if an impulse made some body outrun its reach
+DEEP_FRACTION = 0.1
+MAX_CORRECT = 64  # correction sweeps while some overlap is still being pushed apart

@@ -10,7 +10,8 @@ Phases (semi-implicit Euler, velocities first):
 1. ``kick``      v += dt F/m, omega += dt tau/I (gravity, buoyancy), then linear drag as
                  v /= (1 + c dt) (backward Euler for the drag term: unconditionally stable,
                  never reverses a velocity); drag's exact energy loss is booked per body.
-2. ``reach``     per-body bound on how far any point of the body moves this step.
+2. ``reach``     per-body bound on how far any point of the body moves this step, with
+                 room for what one impulse from the fastest body could add.
 3. ``bin``       counting sort of body centres into hashed cells along x.
 4. ``detect``    (parallel) bounding circles inflated by the reach, then discs of candidate
                  pairs; all disc pairs of one body pair merge into one contact, stored in
@@ -18,10 +19,12 @@ Phases (semi-implicit Euler, velocities first):
                  A contact is kept if its gap may close within this step (speculative
                  contacts: no tunnelling at any speed).
 5. ``impulses``  sequential, fixed order: body i ascending, its wall contact first, then its
-                 partners j > i ascending; repeated ``contact_passes`` times. If an impulse
-                 made some body faster than the reach it was searched with (a struck
-                 iceberg in a packed row), phases 2-5 run again with the new velocities
-                 (at most ``MAX_DETECT`` times), so chains cannot tunnel.
+                 partners j > i ascending; repeated ``contact_passes`` times. Then, only in
+                 violent cases: while some contact would still close by more than
+                 ``DEEP_FRACTION`` of a disc radius this step, the pass runs again, and if an
+                 impulse made a body faster than the reach it was searched with (a struck
+                 iceberg in a packed row), detection runs again first (at most
+                 ``MAX_DETECT`` rounds), so chains cannot tunnel.
 6. ``drift``     x += dt v, theta += dt omega.
 7. ``correct``   sequential, same order: the overlap left after the drift (estimated from
                  the contact gap, the final velocities and earlier pushes) is removed along
@@ -50,6 +53,8 @@ from .layout import (
     COUNT,
     CPX,
     CPZ,
+    DEEP,
+    DEEP_FRACTION,
     DISCS,
     DRAG_ANG,
     DRAG_LIN,
@@ -62,12 +67,14 @@ from .layout import (
     MASS,
     MAX_CORRECT,
     MAX_DETECT,
+    MOTION,
     NCELLS,
     NCONTACT,
     OM,
     OVERFLOW,
     PASSES,
     POTENTIAL,
+    PUSHED,
     RADIUS,
     REACH,
     REACH_MAX,
@@ -77,6 +84,7 @@ from .layout import (
     SIN,
     SLOTS,
     SORTED,
+    SPEED_MAX,
     START,
     TH,
     THICK,
@@ -142,17 +150,26 @@ def body_energy(fx: ti.template(), b: ti.template(), par: ti.template(), i):
 @ti.func
 def outran(b: ti.template(), par: ti.template(), i):
     """1 if body i now moves farther this step than the reach it was searched with."""
-    r = par[DT] * (ti.sqrt(b[i, VX] ** 2 + b[i, VZ] ** 2) + ti.abs(b[i, OM]) * b[i, BOUND])
-    return ti.cast(r > b[i, REACH] * (1.0 + 1e-9) + 1e-12, ti.i32)
+    return ti.cast(par[DT] * speed(b, i) > b[i, REACH] * (1.0 + 1e-9) + 1e-12, ti.i32)
 
 
 # ---------------------------------------------------------------- broad phase
 @ti.func
+def speed(b: ti.template(), i):
+    """Fastest speed of any point of body i."""
+    return ti.sqrt(b[i, VX] ** 2 + b[i, VZ] ** 2) + ti.abs(b[i, OM]) * b[i, BOUND]
+
+
+@ti.func
 def reach(b: ti.template(), par: ti.template(), i):
-    """Bound on the distance any point of body i moves this step; caches cos/sin of tilt."""
+    """How far body i may move this step, including what an impulse from the fastest body
+    could add, ``(1 + e) * SPEED_MAX``; caches cos/sin of the tilt for the contact phases.
+    (A chain of impulses can exceed even that; then the step detects again, see ``outran``.)"""
     b[i, COS] = ti.cos(b[i, TH])
     b[i, SIN] = ti.sin(b[i, TH])
-    r = par[DT] * (ti.sqrt(b[i, VX] ** 2 + b[i, VZ] ** 2) + ti.abs(b[i, OM]) * b[i, BOUND])
+    motion = par[DT] * speed(b, i)
+    b[i, MOTION] = motion
+    r = motion + par[DT] * (1.0 + par[RESTITUTION]) * par[SPEED_MAX]
     b[i, REACH] = r
     return r
 
@@ -217,9 +234,14 @@ def boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, gap):
 
 
 @ti.func
-def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), ipar: ti.template(), i, j, rch):
-    """Merge every close disc pair of (i, j) into one contact (weights = reach - gap).
+def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), ipar: ti.template(), i, j, rch, motion):
+    """One contact for the pair (i, j) from its disc pairs.
 
+    Disc pairs closer than ``motion`` (how far the pair can close at its current
+    velocities) merge into one contact, weighted by ``motion - gap``. If none is that close
+    but some are within ``rch`` (room for velocities an impulse may add), those merge,
+    weighted by ``rch - gap``, into a standby contact, so a struck iceberg meets its
+    neighbour.
     Only discs that can matter are visited: on each face of i, the discs within reach of
     j's bounding circle; for each of those, on each face of j, the discs within reach of
     it (index ranges from :func:`face_range`). Sums are taken in j's body frame.
@@ -243,6 +265,11 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
     nu = 0.0
     nv = 0.0
     gap = 1e30
+    wsum2 = 0.0  # the same sums weighted by rch - gap, for a standby contact
+    pu2 = 0.0
+    pv2 = 0.0
+    nu2 = 0.0
+    nv2 = 0.0
     for fa in range(4):
         lo_a, hi_a = face_range(fa, k, hwi, hhi, ri, cu, cv, outer)
         for ia in range(lo_a, hi_a + 1):
@@ -272,15 +299,28 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
                     dist = ti.sqrt(du * du + dv * dv)
                     g = dist - ri - rj
                     if g < rch and dist > 0:
-                        w = rch - g
-                        wsum += w
                         t = (rj + 0.5 * g) / dist
-                        pu += w * (lb[0] + du * t)
-                        pv += w * (lb[1] + dv * t)
-                        nu += w * du / dist
-                        nv += w * dv / dist
+                        if g < motion:
+                            w = motion - g
+                            wsum += w
+                            pu += w * (lb[0] + du * t)
+                            pv += w * (lb[1] + dv * t)
+                            nu += w * du / dist
+                            nv += w * dv / dist
+                        w2 = rch - g
+                        wsum2 += w2
+                        pu2 += w2 * (lb[0] + du * t)
+                        pv2 += w2 * (lb[1] + dv * t)
+                        nu2 += w2 * du / dist
+                        nv2 += w2 * dv / dist
                         gap = ti.min(gap, g)
-    if wsum > 0:
+    if gap < rch:
+        if wsum <= 0:
+            wsum = wsum2
+            pu = pu2
+            pv = pv2
+            nu = nu2
+            nv = nv2
         qu = pu / wsum
         qv = pv / wsum
         nx = nu * cj - nv * sj
@@ -299,28 +339,46 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
 
 
 @ti.func
+def wall_gap(b: ti.template(), par: ti.template(), ipar: ti.template(), i):
+    """Smallest gap between body i's discs and the wall at the current position."""
+    k = ti.cast(ipar[K], ti.i32)
+    c, s = ti.cos(b[i, TH]), ti.sin(b[i, TH])
+    hw, hh, r = 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], b[i, RADIUS]
+    gap = 1e30
+    for a in range(ti.cast(ipar[DISCS], ti.i32)):
+        pa = to_world(disc_local(a, k, hw, hh, r), b[i, X], b[i, Z], c, s)
+        gap = ti.min(gap, pa[0] - r - par[WALL_X])
+    return gap
+
+
+@ti.func
 def detect_wall(b: ti.template(), bi: ti.template(), par: ti.template(), ipar: ti.template(), i):
     c, s = b[i, COS], b[i, SIN]
     hw, hh, r = 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], b[i, RADIUS]
     rch = b[i, REACH]
+    motion = b[i, MOTION]
     wall_x = par[WALL_X]
     bi[i, WALL_ON] = 0
     if b[i, X] - b[i, BOUND] - rch < wall_x:
         k = ti.cast(ipar[K], ti.i32)
         wsum = 0.0
         pz = 0.0
+        wsum2 = 0.0
+        pz2 = 0.0
         gap = 1e30
         for a in range(ti.cast(ipar[DISCS], ti.i32)):
             pa = to_world(disc_local(a, k, hw, hh, r), b[i, X], b[i, Z], c, s)
             g = pa[0] - r - wall_x
             if g < rch:
-                w = rch - g
-                wsum += w
-                pz += w * pa[1]
+                if g < motion:
+                    wsum += motion - g
+                    pz += (motion - g) * pa[1]
+                wsum2 += rch - g
+                pz2 += (rch - g) * pa[1]
                 gap = ti.min(gap, g)
-        if wsum > 0:
+        if gap < rch:
             bi[i, WALL_ON] = 1
-            b[i, WALL_PZ] = pz / wsum
+            b[i, WALL_PZ] = pz / wsum if wsum > 0 else pz2 / wsum2
             b[i, WALL_GAP] = gap
 
 
@@ -354,7 +412,7 @@ def detect(
                     dz = zi - b[j, Z]
                     lim = b[i, BOUND] + b[j, BOUND] + rch
                     if dx * dx + dz * dz < lim * lim:
-                        narrow(b, bi, cd, cp, ipar, i, j, rch)
+                        narrow(b, bi, cd, cp, ipar, i, j, rch, b[i, MOTION] + b[j, MOTION])
     if ti.static(fx.wall):
         detect_wall(b, bi, par, ipar, i)
 
@@ -409,8 +467,11 @@ def resolve(b: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.t
 
 
 @ti.func
-def push(fx: ti.template(), b: ti.template(), par: ti.template(), acc: ti.template(), i, j, px, pz, nx, nz, gap):
-    """Remove the overlap left after the drift, split by inverse mass (pair centre fixed)."""
+def push(fx: ti.template(), b: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template(), i, j, px, pz, nx, nz, gap):
+    """Remove the overlap left after the drift, split by inverse mass (pair centre fixed).
+
+    The overlap is the contact's gap advanced linearly with the final velocities plus the
+    pushes so far; at the wall (normal fixed) it is measured exactly from the discs."""
     dt = par[DT]
     # arms at the start of the step, when the contact was found
     rx1 = px - (b[i, X] - dt * b[i, VX])
@@ -426,6 +487,8 @@ def push(fx: ti.template(), b: ti.template(), par: ti.template(), acc: ti.templa
         inv2 = 1.0 / b[j, MASS]
         moved -= b[j, SHIFT_X] * nx + b[j, SHIFT_Z] * nz
     g = gap + dt * normal_speed(b, i, j, rx1, rz1, rx2, rz2, nx, nz) + moved
+    if j < 0:
+        g = wall_gap(b, par, ipar, i)
     pushed = 0
     if g < -1e-12:
         pushed = 1
@@ -465,24 +528,92 @@ def impulse_pass(
 
 
 @ti.func
-def correction_pass(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template(), acc: ti.template()):
+def deep_approach(b: ti.template(), par: ti.template(), i, j, px, pz, nx, nz, gap):
+    """1 if the contact still approaches so fast that it would overlap by more than
+    DEEP_FRACTION of a disc radius by the end of the step."""
+    rx2 = 0.0
+    rz2 = 0.0
+    r = b[i, RADIUS]
+    if j >= 0:
+        rx2 = px - b[j, X]
+        rz2 = pz - b[j, Z]
+        r = ti.min(r, b[j, RADIUS])
+    vn = normal_speed(b, i, j, px - b[i, X], pz - b[i, Z], rx2, rz2, nx, nz)
+    return ti.cast(vn < 0 and gap + par[DT] * vn < -DEEP_FRACTION * r, ti.i32)
+
+
+@ti.func
+def deep_approaches(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template()):
+    count = 0
+    for i in range(b.shape[0]):
+        if ti.static(fx.wall):
+            if bi[i, WALL_ON]:
+                count += deep_approach(b, par, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
+        if ti.static(fx.collisions):
+            for s in range(bi[i, NCONTACT]):
+                count += deep_approach(b, par, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
+    return count
+
+
+@ti.func
+def correction_pass(
+    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template()
+):
     n = b.shape[0]
     for i in range(n):
         b[i, SHIFT_X] = 0.0
         b[i, SHIFT_Z] = 0.0
-    for _sweep in range(MAX_CORRECT):
+        bi[i, PUSHED] = -1  # the last sweep that moved body i
+    for sweep in range(MAX_CORRECT):
         pushed = 0
+        # after the first sweep, only contacts of a body moved since the previous sweep
+        since = sweep - 1
         for i in range(n):
             if ti.static(fx.wall):
-                if bi[i, WALL_ON]:
-                    pushed += push(fx, b, par, acc, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
+                if bi[i, WALL_ON] and bi[i, PUSHED] >= since:
+                    if push(fx, b, par, acc, ipar, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP]):
+                        pushed += 1
+                        bi[i, PUSHED] = sweep
             if ti.static(fx.collisions):
                 for s in range(bi[i, NCONTACT]):
-                    pushed += push(
-                        fx, b, par, acc, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP]
-                    )
+                    j = cp[i, s]
+                    if ti.max(bi[i, PUSHED], bi[j, PUSHED]) >= since:
+                        if push(fx, b, par, acc, ipar, i, j, cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP]):
+                            pushed += 1
+                            bi[i, PUSHED] = sweep
+                            bi[j, PUSHED] = sweep
         if pushed == 0:
             break
+
+
+@ti.func
+def detect_all_serial(
+    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), cells: ti.template(), par: ti.template(), ipar: ti.template()
+):
+    """Phases 2-4 (reach, bin, detect) with serial loops."""
+    n = b.shape[0]
+    vmax = 0.0
+    for i in range(n):
+        vmax = ti.max(vmax, speed(b, i))
+    par[SPEED_MAX] = vmax
+    rmax = 0.0
+    for i in range(n):
+        rmax = ti.max(rmax, reach(b, par, i))
+    par[REACH_MAX] = rmax
+    size = cell_size(par)
+    if ti.static(fx.collisions):
+        ncells = ipar[NCELLS]
+        for i in range(n):
+            c = cell_of(b[i, X], size, ncells)
+            bi[i, CELL] = c
+            cells[c, COUNT] += 1
+        scan_cells(cells, ncells)
+        for i in range(n):
+            c = bi[i, CELL]
+            bi[cells[c, FILL], SORTED] = i
+            cells[c, FILL] += 1
+    for i in range(n):
+        detect(fx, b, bi, cd, cp, cells, par, ipar, i, size)
 
 
 # ---------------------------------------------------------------- kernels
@@ -495,41 +626,34 @@ def steps_serial(fx: ti.template(), steps: ti.i32, b: arr, bi: arr, cd: arr, cp:
         for i in range(n):
             kick(fx, b, par, i)
         if ti.static(fx.collisions or fx.wall):
+            redetect = 1
             for _attempt in range(MAX_DETECT):
-                rmax = 0.0
-                for i in range(n):
-                    rmax = ti.max(rmax, reach(b, par, i))
-                par[REACH_MAX] = rmax
-                size = cell_size(par)
-                if ti.static(fx.collisions):
-                    ncells = ipar[NCELLS]
-                    for i in range(n):
-                        c = cell_of(b[i, X], size, ncells)
-                        bi[i, CELL] = c
-                        cells[c, COUNT] += 1
-                    scan_cells(cells, ncells)
-                    for i in range(n):
-                        c = bi[i, CELL]
-                        bi[cells[c, FILL], SORTED] = i
-                        cells[c, FILL] += 1
-                for i in range(n):
-                    detect(fx, b, bi, cd, cp, cells, par, ipar, i, size)
+                if redetect:
+                    detect_all_serial(fx, b, bi, cd, cp, cells, par, ipar)
                 impulse_pass(fx, b, bi, cd, cp, par, acc, ipar)
                 grown = 0
                 for i in range(n):
                     grown += outran(b, par, i)
-                if grown == 0:
+                redetect = grown
+                if grown == 0 and deep_approaches(fx, b, bi, cd, cp, par) == 0:
                     break
         for i in range(n):
             drift(b, par, i)
         if ti.static(fx.collisions or fx.wall):
-            correction_pass(fx, b, bi, cd, cp, par, acc)
+            correction_pass(fx, b, bi, cd, cp, par, acc, ipar)
 
 
 @ti.kernel
 def kick_all(fx: ti.template(), b: arr, par: arr):
     for i in range(b.shape[0]):
         kick(fx, b, par, i)
+
+
+@ti.kernel
+def speed_all(b: arr, par: arr):
+    par[SPEED_MAX] = 0.0
+    for i in range(b.shape[0]):
+        ti.atomic_max(par[SPEED_MAX], speed(b, i))
 
 
 @ti.kernel
@@ -579,11 +703,14 @@ def impulses(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, acc
 
 
 @ti.kernel
-def check_reach(b: arr, par: arr, ipar: arr):
+def check_reach(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, ipar: arr):
     ipar[GROWN] = 0
     for i in range(b.shape[0]):
         if outran(b, par, i):
             ipar[GROWN] = 1
+    ipar[DEEP] = 0
+    for _ in range(1):
+        ipar[DEEP] = deep_approaches(fx, b, bi, cd, cp, par)
 
 
 @ti.kernel
@@ -593,10 +720,10 @@ def drift_all(b: arr, par: arr):
 
 
 @ti.kernel
-def correct(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, acc: arr):
+def correct(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, acc: arr, ipar: arr):
     ti.loop_config(serialize=True)
     for _ in range(1):
-        correction_pass(fx, b, bi, cd, cp, par, acc)
+        correction_pass(fx, b, bi, cd, cp, par, acc, ipar)
 
 
 @ti.kernel
