@@ -47,4 +47,4 @@ NQ = 10
 MAX_DETECT = 16  # impulse passes again while a contact would still close by > DEEP_FRACTION r,
 #                  detecting again first if an impulse made some body outrun its reach
 DEEP_FRACTION = 0.1
-MAX_CORRECT = 64  # correction sweeps while some overlap is still being pushed apart
+MAX_CORRECT = 4  # correction sweeps while some overlap is still being pushed apart
