@@ -232,7 +232,7 @@ def _read_state(path: Path) -> tuple[str | None, bool] | None:
     import h5py
 
     try:
-        with h5py.File(path, "r", libver="latest", swmr=True) as f:
+        with h5py.File(path, "r", locking=False) as f:
             toml = f.attrs.get("scene_toml")
             if isinstance(toml, bytes):
                 toml = toml.decode()
@@ -271,7 +271,7 @@ def _last_diagnostics(path: Path) -> dict:
     from .io.hdf5 import consistent_length
 
     try:
-        with h5py.File(path, "r", libver="latest", swmr=True) as f:
+        with h5py.File(path, "r", locking=False) as f:
             g = f["diagnostics"]
             n = consistent_length(g)
             if n == 0:

@@ -181,11 +181,16 @@ _RULES: dict[str, tuple[Any, str]] = {
 def _fmt(value: Any) -> str:
     if isinstance(value, str):
         return repr(value)
-    return str(value)
+    return _one_line(str(value))
+
+
+def _one_line(text: str) -> str:
+    """``text`` with line breaks and other control characters escaped."""
+    return text if text.isprintable() else repr(text)[1:-1]
 
 
 def _error(key: str, value: Any, why: str) -> SceneError:
-    return SceneError(f"{key} = {_fmt(value)}: {why}")
+    return SceneError(f"{_one_line(key)} = {_fmt(value)}: {_one_line(why)}")
 
 
 def _check_type(key: str, value: Any, default: Any) -> Any:
@@ -279,6 +284,8 @@ def _iceberg_table(doc: dict) -> tuple[dict, ...] | None:
 
 def _multiple_of(key: str, value: float, dt: float) -> None:
     ratio = value / dt
+    if not math.isfinite(ratio) or ratio > 1e13:
+        raise _error(key, value, f"is more than 1e13 steps of time.dt = {dt}")
     if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio):
         raise _error(key, value, f"must be a whole multiple of time.dt = {dt}")
 
@@ -515,7 +522,15 @@ def _toml_value(v: Any) -> str:
     if isinstance(v, int):
         return str(v)
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        out = []
+        for ch in v:  # a TOML basic string: escape quotes, backslashes and control characters
+            if ch in '"\\':
+                out.append("\\" + ch)
+            elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+                out.append(f"\\u{ord(ch):04x}")
+            else:
+                out.append(ch)
+        return '"' + "".join(out) + '"'
     if isinstance(v, list):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     raise TypeError(type(v))

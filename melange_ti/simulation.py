@@ -8,6 +8,7 @@ one call with no host transfer; at an event one packed transfer gives state and 
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time as wallclock
 from dataclasses import dataclass
@@ -20,7 +21,7 @@ from . import __version__
 from . import diagnostics as diag
 from .errors import NumericalError, RunError
 from .io import checkpoint
-from .io.hdf5 import RunWriter, read_run
+from .io.hdf5 import OutputError, RunWriter, read_run
 from .model import Model
 from .scene import Scene
 
@@ -150,6 +151,13 @@ class Simulation:
                     bar.update(nxt - step)
                 step = nxt
                 last = self._events(step, counters) or last
+        except OutputError:
+            writer.close()
+            if not self.resume and writer.snapshots_written == 0:
+                # nothing was recorded: leave nothing behind
+                self.out.unlink(missing_ok=True)
+                self.ckpt.unlink(missing_ok=True)
+            raise
         finally:
             if bar is not None:
                 bar.close()
@@ -229,29 +237,28 @@ class Simulation:
 
     # ------------------------------------------------------------------ checkpoints
     def _save_checkpoint(self, step: int, c: _Counters) -> None:
-        acc = self.model.accumulators()
-        state = self.model.state()
-        checkpoint.save(
-            self.ckpt,
-            {
-                "scene_toml": self.scene.to_toml(),
-                "step": step,
-                **{f"state_{k}": v for k, v in state.items()},
-                **{f"acc_{k}": v for k, v in acc.items()},
-                "counters": np.array([c.t, c.wall_impulse, c.impulse_sum]),
-                "counter_contacts": c.contacts,
-                "x0_max": self.x0_max,
-                "e0": self.e0,
-            },
-        )
+        data = {
+            "scene_toml": self.scene.to_toml(),
+            "step": step,
+            **{f"state_{k}": v for k, v in self.model.state().items()},
+            **{f"acc_{k}": v for k, v in self.model.accumulators().items()},
+            "counters": np.array([c.t, c.wall_impulse, c.impulse_sum]),
+            "counter_contacts": c.contacts,
+            "x0_max": self.x0_max,
+            "e0": self.e0,
+        }
+        try:
+            checkpoint.save(self.ckpt, data)
+        except OSError as exc:
+            raise OutputError(f"{self.ckpt}: checkpoint write failed ({os.strerror(exc.errno) if exc.errno else exc})") from None
 
     def _reopen(self, model: Model, dtype):
         if not self.ckpt.exists():
             raise RunError(f"--resume: no checkpoint {self.ckpt} (the run finished, or never started; use --overwrite)")
         try:
             ck = checkpoint.load(self.ckpt)
-        except (OSError, ValueError, KeyError) as exc:
-            raise RunError(f"--resume: checkpoint {self.ckpt} is unreadable ({exc.__class__.__name__})") from None
+        except ValueError as exc:
+            raise RunError(f"--resume: checkpoint {self.ckpt} cannot be used: {exc}") from None
         text = self.scene.to_toml()
         if str(ck["scene_toml"]) != text:
             raise RunError(f"--resume: {self.out} was made by a different scene (or --set values); refusing to mix them")

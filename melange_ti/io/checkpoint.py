@@ -8,6 +8,7 @@ either the old or the new checkpoint, never a torn one.
 from __future__ import annotations
 
 import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -18,15 +19,25 @@ def checkpoint_path(run_path: str | Path) -> Path:
     return run_path.with_name(run_path.name + ".ckpt")
 
 
+FORMAT_VERSION = 2
+
+
 def save(path: str | Path, data: dict[str, np.ndarray | str | int | float]) -> None:
-    """Write ``data`` atomically (tmp + fsync + rename + directory fsync)."""
+    """Write ``data`` atomically (tmp + fsync + rename + directory fsync).
+
+    Raises ``OSError`` (e.g. a full disk) with the previous checkpoint left intact and no
+    temporary file behind."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "wb") as fh:
-        np.savez(fh, **{k: np.asarray(v) for k, v in data.items()})
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, format_version=FORMAT_VERSION, **{k: np.asarray(v) for k, v in data.items()})
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        raise
     dir_fd = os.open(path.parent, os.O_RDONLY)
     try:
         os.fsync(dir_fd)
@@ -35,5 +46,12 @@ def save(path: str | Path, data: dict[str, np.ndarray | str | int | float]) -> N
 
 
 def load(path: str | Path) -> dict[str, np.ndarray]:
-    with np.load(Path(path), allow_pickle=False) as z:
-        return {k: z[k] for k in z.files}
+    """Read a checkpoint; ``ValueError`` if it is damaged or from another format version."""
+    try:
+        with np.load(Path(path), allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"damaged ({exc.__class__.__name__})") from None
+    if int(data.get("format_version", -1)) != FORMAT_VERSION:
+        raise ValueError(f"format version {int(data.get('format_version', -1))}, expected {FORMAT_VERSION}")
+    return data

@@ -1,13 +1,19 @@
-"""The run file (SPEC section 5): streamed, chunked, flushed, readable while written (SWMR).
+"""The run file (SPEC section 5): streamed, chunked, flushed after every write.
 
-Every dataset is created before SWMR mode starts. Rows are appended with the ``time``
-dataset of each group written last, so a reader (or a file cut short by ``kill -9``) can trust
-the shortest consistent length: :func:`consistent_length`.
+Rows are appended with the ``time`` dataset of each group written last, so a reader (or a
+file cut short by ``kill -9``) can trust the shortest consistent length:
+:func:`consistent_length`. The file uses HDF5's default (oldest compatible) format and no
+SWMR: with the HDF5 2.x library a file opened with ``libver="latest"`` for writing keeps a
+status flag in its superblock after a kill, and plain ``h5py.File(path)`` then refuses it.
+The writer opens the file without HDF5's file lock, so a reader can open the running file
+at any time with ``h5py.File(path, "r", locking=False)`` (what :func:`read_run` does) and
+sees every row up to the writer's last flush.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 from pathlib import Path
 
 import h5py
@@ -54,13 +60,13 @@ class RunWriter:
         self.dtype = np.dtype(dtype)
         try:
             if mode == "w":
-                self.f = h5py.File(self.path, "w", libver="latest")
+                self.f = h5py.File(self.path, "w", locking=False)
                 self._create(attrs or {}, constants or {})
             else:
-                self.f = h5py.File(self.path, "r+", libver="latest")
+                self.f = h5py.File(self.path, "r+", locking=False)
                 self._truncate(resume_time)
-            self.f.swmr_mode = True
-        except OSError as exc:
+            self.f.flush()
+        except (OSError, RuntimeError) as exc:
             raise OutputError(f"--out {str(self.path)!r}: cannot write ({_reason(exc)})") from None
         self._pending: list[dict] = []
         # Dataset handles looked up once: h5py's group lookup costs more than a small write.
@@ -68,6 +74,12 @@ class RunWriter:
         self._diag = {k: self.f["diagnostics"][k] for k in ("time", *DIAGNOSTICS)}
         self._nsnap = self._snap["time"].shape[0]
         self._ndiag = self._diag["time"].shape[0]
+        # The most one write can allocate (a new chunk of every dataset, plus metadata):
+        # refuse to start a write without twice that free, so a filling disk stops the run
+        # between writes and the file stays whole.
+        x = self._snap["x"]
+        snap_chunk = x.chunks[0] * x.chunks[1] * x.dtype.itemsize if x.chunks else 0
+        self._room = 2 * (len(STATE) * snap_chunk + (len(DIAGNOSTICS) + 2) * 8192) + (64 << 10)
 
     def _create(self, attrs: dict, constants: dict[str, np.ndarray]) -> None:
         f = self.f
@@ -100,8 +112,24 @@ class RunWriter:
                 ds.resize(keep, axis=0)
         self.f.attrs["complete"] = False
 
+    @property
+    def snapshots_written(self) -> int:
+        return self._nsnap
+
+    def _check_room(self) -> None:
+        try:
+            free = shutil.disk_usage(self.path.parent).free
+        except OSError:
+            return
+        if free < self._room:
+            raise OutputError(
+                f"{self.path}: no space left on device ({free >> 10} kB free, a write may need {self._room >> 10} kB); "
+                "the file holds everything up to the last write"
+            )
+
     def snapshot(self, t: float, state: dict[str, np.ndarray]) -> None:
         """Append one snapshot of every iceberg; written and flushed at once."""
+        self._check_room()
         k = self._nsnap
         try:
             for name in (*STATE, "time"):
@@ -109,9 +137,9 @@ class RunWriter:
                 ds.resize(k + 1, axis=0)
                 ds[k] = t if name == "time" else state[name]
             self._nsnap = k + 1
-            self.flush()
-        except OSError as exc:
-            raise OutputError(f"{self.path}: write failed ({_reason(exc)})") from None
+        except (OSError, RuntimeError) as exc:
+            raise OutputError(f"{self.path}: write failed ({self._reason(exc)})") from None
+        self.flush()
 
     def diagnostic(self, row: dict[str, float]) -> None:
         """Queue one diagnostic row; rows are written at the next :meth:`flush`."""
@@ -119,6 +147,8 @@ class RunWriter:
 
     def flush(self) -> None:
         """Write queued diagnostics (time last) and flush the file to disk."""
+        if self._pending:
+            self._check_room()
         try:
             if self._pending:
                 k = self._ndiag
@@ -130,21 +160,40 @@ class RunWriter:
                 self._ndiag = k + m
                 self._pending.clear()
             self.f.flush()
-        except OSError as exc:
-            raise OutputError(f"{self.path}: write failed ({_reason(exc)})") from None
+        except (OSError, RuntimeError) as exc:
+            raise OutputError(f"{self.path}: write failed ({self._reason(exc)})") from None
+
+    def _reason(self, exc: Exception) -> str:
+        """errno text if there is one; HDF5's own errors carry none, so check the disk."""
+        if getattr(exc, "errno", None):
+            return os.strerror(exc.errno)
+        try:
+            if shutil.disk_usage(self.path.parent).free < 1 << 20:
+                return "no space left on device"
+        except OSError:
+            pass
+        return _reason(exc)
 
     def close(self, complete: bool = False) -> None:
+        """Flush and close; after a failed write, close without raising again."""
         if not self.f.id.valid:
             return
         try:
             self.flush()
             if complete:
                 self.f.attrs["complete"] = True
+                self.f.flush()
+        except (OSError, RuntimeError, OutputError):
+            if complete:
+                raise
         finally:
-            self.f.close()
+            try:
+                self.f.close()
+            except (OSError, RuntimeError):
+                pass
 
 
-def _reason(exc: OSError) -> str:
+def _reason(exc: Exception) -> str:
     text = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
     if getattr(exc, "errno", None):
         return os.strerror(exc.errno)
@@ -164,7 +213,7 @@ def read_run(path: str | Path) -> dict:
     """
     path = Path(path)
     try:
-        with h5py.File(path, "r", libver="latest", swmr=True) as f:
+        with h5py.File(path, "r", locking=False) as f:
             out = {"attrs": {k: _plain(v) for k, v in f.attrs.items()}}
             for group in ("icebergs", "snapshots", "diagnostics"):
                 g = f[group]
@@ -172,7 +221,7 @@ def read_run(path: str | Path) -> dict:
                 out[group] = {k: (ds[:n] if n is not None else ds[:]) for k, ds in g.items()}
     except FileNotFoundError:
         raise OutputError(f"{path}: not found") from None
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, RuntimeError) as exc:
         raise OutputError(f"{path}: not a readable melange_ti run file ({str(exc).splitlines()[0]})") from None
     return out
 
