@@ -76,8 +76,10 @@ def _cmd_check(args) -> int:
     from . import scene
 
     sc = scene.load(args.scene, scene.parse_overrides(args.set))
-    print(f"{args.scene}: ok ({sc.icebergs().count} icebergs, effects {', '.join(sc.effects.names()) or 'none'}, "
-          f"{sc.time.steps} steps of dt = {sc.time.dt})")
+    print(
+        f"{args.scene}: ok ({sc.icebergs().count} icebergs, effects {', '.join(sc.effects.names()) or 'none'}, "
+        f"{sc.time.steps} steps of dt = {sc.time.dt})"
+    )
     return 0
 
 

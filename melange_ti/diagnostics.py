@@ -25,7 +25,9 @@ def leading_edge(x: np.ndarray, x0_max: float) -> float:
     return float(np.max(x) - x0_max)
 
 
-def capsized_by_position(x: np.ndarray, theta: np.ndarray, bin_width: float = 10.0, x_min: float = 0.0, x_max: float | None = None):
+def capsized_by_position(
+    x: np.ndarray, theta: np.ndarray, bin_width: float = 10.0, x_min: float = 0.0, x_max: float | None = None
+):
     """Fraction capsized in bins of ``bin_width`` along x (paper Fig. 5).
 
     Returns ``(centres, fraction, count)``; empty bins have fraction NaN.

@@ -41,4 +41,3 @@ def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", 
     name = str(ti.lang.impl.current_cfg().arch).split(".")[-1]
     _current = (key, name)
     return name
-

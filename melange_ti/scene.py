@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tomllib
 
 EFFECTS = ("gravity", "buoyancy", "drag", "collisions", "wall")
 

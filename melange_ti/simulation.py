@@ -11,9 +11,9 @@ import math
 import os
 import sys
 import time as wallclock
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -42,7 +42,8 @@ class RunSummary:
     def lines(self) -> list[str]:
         rel = self.energy_residual / self.energy_released if self.energy_released else float("nan")
         return [
-            f"simulated t = {self.time:g} in {self.steps} steps, {self.wall_seconds:.1f} s wall, {self.steps_per_second:,.0f} steps/s",
+            f"simulated t = {self.time:g} in {self.steps} steps, {self.wall_seconds:.1f} s wall, "
+            f"{self.steps_per_second:,.0f} steps/s",
             f"capsized fraction {self.capsized_fraction:.3f}, leading edge {self.leading_edge:.3f} widths",
             f"energy budget: released {self.energy_released:.6g}, dissipated {self.dissipated:.6g}, "
             f"residual {self.energy_residual:.3g} ({rel:.2%} of released)",
@@ -145,7 +146,12 @@ class Simulation:
             if not self.resume:
                 last = self._events(0, counters, first=True)
             while step < self.total:
-                nxt = min(self._next(step, self.every_diag), self._next(step, self.every_snap), self._next(step, self.every_ckpt), self.total)
+                nxt = min(
+                    self._next(step, self.every_diag),
+                    self._next(step, self.every_snap),
+                    self._next(step, self.every_ckpt),
+                    self.total,
+                )
                 model.advance(nxt - step)
                 if bar is not None:
                     bar.update(nxt - step)
@@ -290,4 +296,3 @@ class Simulation:
             dissipated=dissipated,
             energy_residual=released - dissipated,
         )
-

@@ -38,8 +38,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..io.hdf5 import OutputError, read_run  # noqa: E402
-from ..scene import Scene, SceneError, loads  # noqa: E402
+from ..io.hdf5 import OutputError, read_run, stored_scene  # noqa: E402
+from ..scene import Scene, SceneError  # noqa: E402
 from . import stats  # noqa: E402
 from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners  # noqa: E402
 
@@ -166,13 +166,7 @@ def load_run(path: str | Path) -> Run:
     """One run file with its scene; a one-line :class:`OutputError` if it cannot be plotted."""
     path = Path(path)
     data = read_run(path)
-    text = data["attrs"].get("scene_toml")
-    if not isinstance(text, str):
-        raise OutputError(f"{path}: not a melange_ti run file (no scene_toml attribute)")
-    try:
-        scene = loads(text)
-    except SceneError as exc:
-        raise SceneError(f"{path}: stored scene: {exc}") from None
+    scene = stored_scene(path, data)
     missing = [k for k in REQUIRED_DIAGNOSTICS if k not in data["diagnostics"]]
     missing += [f"snapshots/{k}" for k in ("time", "x", "z", "theta") if k not in data["snapshots"]]
     missing += [f"icebergs/{k}" for k in ("width", "thickness") if k not in data["icebergs"]]

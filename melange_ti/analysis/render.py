@@ -21,8 +21,8 @@ from matplotlib.collections import EllipseCollection, PolyCollection  # noqa: E4
 from matplotlib.colors import Normalize  # noqa: E402
 
 from .. import diagnostics as diag  # noqa: E402
-from ..io.hdf5 import OutputError, read_run  # noqa: E402
-from ..scene import Scene, SceneError, disc_radius, loads  # noqa: E402
+from ..io.hdf5 import OutputError, read_run, stored_scene  # noqa: E402
+from ..scene import Scene, SceneError, disc_radius  # noqa: E402
 
 G_SI = 9.81  # m s^-2
 CMAP = "plasma"
@@ -167,13 +167,7 @@ def extent(corners: np.ndarray) -> tuple[float, float, float, float]:
 def load_run(path: str | Path) -> tuple[dict, Scene]:
     """A run file and its scene; one-line errors for anything that cannot be rendered."""
     run = read_run(path)
-    text = run["attrs"].get("scene_toml")
-    if not isinstance(text, str):
-        raise OutputError(f"{path}: not a melange_ti run file (no scene_toml attribute)")
-    try:
-        scene = loads(text)
-    except SceneError as exc:
-        raise SceneError(f"{path}: stored scene: {exc}") from None
+    scene = stored_scene(path, run)
     snaps = run["snapshots"]
     if "time" not in snaps or len(snaps["time"]) == 0:
         raise OutputError(f"{path}: no snapshots yet (nothing to draw)")

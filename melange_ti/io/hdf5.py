@@ -232,3 +232,16 @@ def _plain(v):
     if isinstance(v, np.generic):
         return v.item()
     return v
+
+
+def stored_scene(path: str | Path, data: dict):
+    """The scene a run file was made with (from :func:`read_run` data); one-line errors."""
+    from ..scene import SceneError, loads
+
+    text = data["attrs"].get("scene_toml")
+    if not isinstance(text, str):
+        raise OutputError(f"{path}: not a melange_ti run file (no scene_toml attribute)")
+    try:
+        return loads(text)
+    except SceneError as exc:
+        raise SceneError(f"{path}: stored scene: {exc}") from None

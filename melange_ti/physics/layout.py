@@ -15,7 +15,19 @@ X, Z, TH, VX, VZ, OM = 0, 1, 2, 3, 4, 5
 # bodies: constants
 WIDTH, THICK, MASS, INERTIA, RADIUS, BOUND = 6, 7, 8, 9, 10, 11
 # bodies: per-step scratch and per-body accumulators
-REACH, COS, SIN, DRAG_WORK, SHIFT_X, SHIFT_Z, WALL_PZ, WALL_GAP, KINETIC, POTENTIAL, MOTION = 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22
+REACH, COS, SIN, DRAG_WORK, SHIFT_X, SHIFT_Z, WALL_PZ, WALL_GAP, KINETIC, POTENTIAL, MOTION = (
+    12,
+    13,
+    14,
+    15,
+    16,
+    17,
+    18,
+    19,
+    20,
+    21,
+    22,
+)
 NB = 23
 STATE_COLS = {"x": X, "z": Z, "theta": TH, "vx": VX, "vz": VZ, "omega": OM}
 CONST_COLS = {"width": WIDTH, "thickness": THICK, "mass": MASS, "inertia": INERTIA, "radius": RADIUS, "bound": BOUND}

@@ -96,10 +96,10 @@ from .layout import (
     WALL_X,
     WATER,
     WIDTH,
-    X,
-    Z,
     K,
     N,
+    X,
+    Z,
 )
 
 arr = ti.types.ndarray()
@@ -143,7 +143,14 @@ def drift(b: ti.template(), par: ti.template(), i):
 @ti.func
 def body_energy(fx: ti.template(), b: ti.template(), par: ti.template(), i):
     return potential_energy(
-        b[i, Z], b[i, TH], 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], b[i, MASS], par[WATER], ti.static(fx.gravity), ti.static(fx.buoyancy)
+        b[i, Z],
+        b[i, TH],
+        0.5 * b[i, WIDTH],
+        0.5 * b[i, THICK],
+        b[i, MASS],
+        par[WATER],
+        ti.static(fx.gravity),
+        ti.static(fx.buoyancy),
     )
 
 
@@ -467,7 +474,9 @@ def resolve(b: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.t
 
 
 @ti.func
-def push(fx: ti.template(), b: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template(), i, j, px, pz, nx, nz, gap):
+def push(
+    fx: ti.template(), b: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template(), i, j, px, pz, nx, nz, gap
+):
     """Remove the overlap left after the drift, split by inverse mass (pair centre fixed).
 
     The overlap is the contact's gap advanced linearly with the final velocities plus the
@@ -514,7 +523,14 @@ def push(fx: ti.template(), b: ti.template(), par: ti.template(), acc: ti.templa
 
 @ti.func
 def impulse_pass(
-    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template()
+    fx: ti.template(),
+    b: ti.template(),
+    bi: ti.template(),
+    cd: ti.template(),
+    cp: ti.template(),
+    par: ti.template(),
+    acc: ti.template(),
+    ipar: ti.template(),
 ):
     n = ti.cast(ipar[N], ti.i32)
     for _ in range(ti.cast(ipar[PASSES], ti.i32)):
@@ -524,7 +540,9 @@ def impulse_pass(
                     resolve(b, par, acc, ipar, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
             if ti.static(fx.collisions):
                 for s in range(bi[i, NCONTACT]):
-                    resolve(b, par, acc, ipar, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
+                    resolve(
+                        b, par, acc, ipar, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP]
+                    )
 
 
 @ti.func
@@ -543,7 +561,9 @@ def deep_approach(b: ti.template(), par: ti.template(), i, j, px, pz, nx, nz, ga
 
 
 @ti.func
-def deep_approaches(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template()):
+def deep_approaches(
+    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template()
+):
     count = 0
     for i in range(b.shape[0]):
         if ti.static(fx.wall):
@@ -551,13 +571,22 @@ def deep_approaches(fx: ti.template(), b: ti.template(), bi: ti.template(), cd: 
                 count += deep_approach(b, par, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
         if ti.static(fx.collisions):
             for s in range(bi[i, NCONTACT]):
-                count += deep_approach(b, par, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
+                count += deep_approach(
+                    b, par, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP]
+                )
     return count
 
 
 @ti.func
 def correction_pass(
-    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template()
+    fx: ti.template(),
+    b: ti.template(),
+    bi: ti.template(),
+    cd: ti.template(),
+    cp: ti.template(),
+    par: ti.template(),
+    acc: ti.template(),
+    ipar: ti.template(),
 ):
     n = b.shape[0]
     for i in range(n):
@@ -578,7 +607,20 @@ def correction_pass(
                 for s in range(bi[i, NCONTACT]):
                     j = cp[i, s]
                     if ti.max(bi[i, PUSHED], bi[j, PUSHED]) >= since:
-                        if push(fx, b, par, acc, ipar, i, j, cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP]):
+                        if push(
+                            fx,
+                            b,
+                            par,
+                            acc,
+                            ipar,
+                            i,
+                            j,
+                            cd[i, s, CPX],
+                            cd[i, s, CPZ],
+                            cd[i, s, CNX],
+                            cd[i, s, CNZ],
+                            cd[i, s, CGAP],
+                        ):
                             pushed += 1
                             bi[i, PUSHED] = sweep
                             bi[j, PUSHED] = sweep
@@ -588,7 +630,14 @@ def correction_pass(
 
 @ti.func
 def detect_all_serial(
-    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), cells: ti.template(), par: ti.template(), ipar: ti.template()
+    fx: ti.template(),
+    b: ti.template(),
+    bi: ti.template(),
+    cd: ti.template(),
+    cp: ti.template(),
+    cells: ti.template(),
+    par: ti.template(),
+    ipar: ti.template(),
 ):
     """Phases 2-4 (reach, bin, detect) with serial loops."""
     n = b.shape[0]
