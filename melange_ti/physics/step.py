@@ -475,12 +475,26 @@ def resolve(b: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.t
 
 @ti.func
 def push(
-    fx: ti.template(), b: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template(), i, j, px, pz, nx, nz, gap
+    fx: ti.template(),
+    b: ti.template(),
+    bi: ti.template(),
+    par: ti.template(),
+    ipar: ti.template(),
+    sweep,
+    i,
+    j,
+    px,
+    pz,
+    nx,
+    nz,
+    gap,
 ):
     """Remove the overlap left after the drift, split by inverse mass (pair centre fixed).
 
     The overlap is the contact's gap advanced linearly with the final velocities plus the
-    pushes so far; at the wall (normal fixed) it is measured exactly from the discs."""
+    pushes so far; at the wall (normal fixed) it is measured exactly from the discs. A body
+    moved for the first time in this pass records its potential energy (POTENTIAL column)
+    and is marked with the sweep (PUSHED); the pass books the energy change per body."""
     dt = par[DT]
     # arms at the start of the step, when the contact was found
     rx1 = px - (b[i, X] - dt * b[i, VX])
@@ -502,22 +516,23 @@ def push(
     if g < -1e-12:
         pushed = 1
         depth = -g
-        u0 = body_energy(fx, b, par, i)
+        if bi[i, PUSHED] < 0:
+            b[i, POTENTIAL] = body_energy(fx, b, par, i)
+        bi[i, PUSHED] = sweep
         s1 = depth * inv1 / (inv1 + inv2)
         b[i, X] += s1 * nx
         b[i, Z] += s1 * nz
         b[i, SHIFT_X] += s1 * nx
         b[i, SHIFT_Z] += s1 * nz
-        du = body_energy(fx, b, par, i) - u0
         if j >= 0:
-            u0 = body_energy(fx, b, par, j)
+            if bi[j, PUSHED] < 0:
+                b[j, POTENTIAL] = body_energy(fx, b, par, j)
+            bi[j, PUSHED] = sweep
             s2 = depth * inv2 / (inv1 + inv2)
             b[j, X] -= s2 * nx
             b[j, Z] -= s2 * nz
             b[j, SHIFT_X] -= s2 * nx
             b[j, SHIFT_Z] -= s2 * nz
-            du += body_energy(fx, b, par, j) - u0
-        acc[ACC_CORRECTION] -= du
     return pushed
 
 
@@ -600,19 +615,18 @@ def correction_pass(
         for i in range(n):
             if ti.static(fx.wall):
                 if bi[i, WALL_ON] and bi[i, PUSHED] >= since:
-                    if push(fx, b, par, acc, ipar, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP]):
-                        pushed += 1
-                        bi[i, PUSHED] = sweep
+                    pushed += push(fx, b, bi, par, ipar, sweep, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
             if ti.static(fx.collisions):
                 for s in range(bi[i, NCONTACT]):
                     j = cp[i, s]
                     if ti.max(bi[i, PUSHED], bi[j, PUSHED]) >= since:
-                        if push(
+                        pushed += push(
                             fx,
                             b,
+                            bi,
                             par,
-                            acc,
                             ipar,
+                            sweep,
                             i,
                             j,
                             cd[i, s, CPX],
@@ -620,12 +634,13 @@ def correction_pass(
                             cd[i, s, CNX],
                             cd[i, s, CNZ],
                             cd[i, s, CGAP],
-                        ):
-                            pushed += 1
-                            bi[i, PUSHED] = sweep
-                            bi[j, PUSHED] = sweep
+                        )
         if pushed == 0:
             break
+    # the corrections' change of potential energy, per moved body, in body order
+    for i in range(n):
+        if bi[i, PUSHED] >= 0:
+            acc[ACC_CORRECTION] -= body_energy(fx, b, par, i) - b[i, POTENTIAL]
 
 
 @ti.func
