@@ -25,23 +25,6 @@ def leading_edge(x: np.ndarray, x0_max: float) -> float:
     return float(np.max(x) - x0_max)
 
 
-def capsized_by_position(
-    x: np.ndarray, theta: np.ndarray, bin_width: float = 10.0, x_min: float = 0.0, x_max: float | None = None
-):
-    """Fraction capsized in bins of ``bin_width`` along x (paper Fig. 5).
-
-    Returns ``(centres, fraction, count)``; empty bins have fraction NaN.
-    """
-    if x_max is None:
-        x_max = float(np.max(x)) + bin_width
-    edges = np.arange(x_min, x_max + bin_width, bin_width)
-    count, _ = np.histogram(x, edges)
-    caps, _ = np.histogram(x[capsized(theta)], edges)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        frac = np.where(count > 0, caps / np.maximum(count, 1), np.nan)
-    return 0.5 * (edges[1:] + edges[:-1]), frac, count
-
-
 def capsize_energy(density_ratio: float, width: float, thickness: float) -> float:
     """Potential energy released by one capsize, upright to flat: ``0.5 r (1-r) w h (h-w)``."""
     r = density_ratio

@@ -146,8 +146,7 @@ def position_edges(x_min: float, x_max: float, bin_width: float = 10.0) -> np.nd
 def capsized_by_position(x: np.ndarray, theta: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fraction capsized and count of icebergs (centres) in each bin of ``edges``.
 
-    Empty bins have fraction NaN. Same rule as :func:`melange_ti.diagnostics.capsized_by_position`
-    but on given edges, so that several runs share their bins.
+    Empty bins have fraction NaN. Fixed edges, so that several runs share their bins.
     """
     x = np.asarray(x, dtype=float)
     count, _ = np.histogram(x, edges)

@@ -166,9 +166,8 @@ def brute_force(geo: Geometry, s, dt, tol, restitution=0.5):
     bodies with a disc closer than r + reach to the wall. ``reach = dt (speed + (1 + e) vmax)``
     with ``speed = |v| + |omega| half-diagonal`` and ``vmax`` the largest speed: room for
     what one impulse can add. ``maybe``: within ``tol`` of the
-    threshold (round-off decides; not asserted either way), or degenerate: the disc pairs'
-    normals, weighted by how far they are inside the threshold, cancel (e.g. concentric
-    bodies), so that no contact normal exists."""
+    threshold (round-off decides; not asserted either way). Symmetric overlaps whose disc
+    normals cancel must still be found (the model falls back to the centre line)."""
     speed = np.hypot(s["vx"], s["vz"]) + np.abs(s["omega"]) * geo.bound
     reach = dt * (speed + (1.0 + restitution) * speed.max())
     pts = [geo.world(s, i) for i in range(geo.n)]
