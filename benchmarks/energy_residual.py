@@ -35,10 +35,20 @@ def main() -> None:
         tot = m.totals()
         released = e0 - (s["kinetic"].sum() + s["potential"].sum())
         booked = s["drag_work"].sum() + tot.collision_dissipated + tot.correction_work
-        rows.append({"dt": dt, "released": released, "dissipated": booked, "residual": released - booked,
-                     "residual_fraction": (released - booked) / released})
-        print(f"dt={dt:<7} released={released:.5f} dissipated={booked:.5f} residual={released - booked:+.2e} "
-              f"({(released - booked) / released:+.2%})", flush=True)
+        rows.append(
+            {
+                "dt": dt,
+                "released": released,
+                "dissipated": booked,
+                "residual": released - booked,
+                "residual_fraction": (released - booked) / released,
+            }
+        )
+        print(
+            f"dt={dt:<7} released={released:.5f} dissipated={booked:.5f} residual={released - booked:+.2e} "
+            f"({(released - booked) / released:+.2%})",
+            flush=True,
+        )
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "energy_residual.csv", "w", newline="") as fh:

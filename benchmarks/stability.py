@@ -25,8 +25,13 @@ def main() -> None:
     for dt in (0.01, 0.02, 0.04, 0.08, 0.16, 0.32):
         sc = scn.load(
             None,
-            [("shelf.count", a.count), ("time.dt", dt), ("output.diagnostic_interval", 3.2),
-             ("output.snapshot_interval", 32.0), ("output.checkpoint_interval", 320.0)],
+            [
+                ("shelf.count", a.count),
+                ("time.dt", dt),
+                ("output.diagnostic_interval", 3.2),
+                ("output.snapshot_interval", 32.0),
+                ("output.checkpoint_interval", 320.0),
+            ],
         )
         m = Model(sc)
         s0 = m.sample()
@@ -38,8 +43,7 @@ def main() -> None:
             e = s["kinetic"].sum() + s["potential"].sum()
             finite = finite and bool(np.isfinite(e))
             rise = max(rise, e - e0)
-        print(f"dt={dt:<5} finite={finite} largest energy rise above start={rise:+.3g} "
-              f"stable={finite and rise <= 0}", flush=True)
+        print(f"dt={dt:<5} finite={finite} largest energy rise above start={rise:+.3g} stable={finite and rise <= 0}", flush=True)
 
 
 if __name__ == "__main__":

@@ -258,9 +258,7 @@ def classify(out_dir: Path, runs: list[RunSpec], resolved: dict[str, str]) -> No
             continue
         toml, complete = state
         if (complete or ckpt) and toml != resolved[r.file]:
-            raise RunError(
-                f"{path}: holds a run of a different scene (or --set values); remove it or use another --out"
-            )
+            raise RunError(f"{path}: holds a run of a different scene (or --set values); remove it or use another --out")
         r.action = "skip" if complete else ("resume" if ckpt else "overwrite")
 
 
@@ -342,6 +340,7 @@ def _run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, a
         # kernel call in a print-buffer flush (10x slower here) if sys.stdout looks wrapped.
         from .io.checkpoint import checkpoint_path
         from .simulation import Simulation
+
         sc = scn.loads(text, [*overrides, (SEED_KEY, seed)])
         _ensure_taichi(sc.precision)
         path = Path(out)

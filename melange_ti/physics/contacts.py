@@ -46,12 +46,12 @@ def cross2(a, b):
 
 
 @ti.func
-def face_range(f, k, hw, hh, r, pu, pv, reach_r):
-    """Index range [lo, hi] of the discs on face ``f`` whose centres lie within ``reach_r``
-    of the body-frame point (pu, pv); empty when lo > hi. Matches :func:`disc_local`."""
+def face_line(f, hw, hh, r):
+    """Face ``f``'s disc line in the body frame: its first disc centre (u0, v0), the unit
+    direction (du, dv) towards the next corner and its length (matches :func:`disc_local`:
+    disc ``ia`` of the face sits at ``(u0, v0) + ia * length / k * (du, dv)``)."""
     iu = hw - r
     iv = hh - r
-    # face f runs from (su*iu, sv*iv) along the unit direction (du, dv)
     su, sv, du, dv, length = 1.0, -1.0, 0.0, 1.0, 2.0 * iv
     if f == 1:
         su, sv, du, dv, length = 1.0, 1.0, -1.0, 0.0, 2.0 * iu
@@ -59,19 +59,48 @@ def face_range(f, k, hw, hh, r, pu, pv, reach_r):
         su, sv, du, dv, length = -1.0, 1.0, 0.0, -1.0, 2.0 * iv
     elif f == 3:
         su, sv, du, dv, length = -1.0, -1.0, 1.0, 0.0, 2.0 * iu
-    ru = pu - su * iu
-    rv = pv - sv * iv
+    return su * iu, sv * iv, du, dv, length
+
+
+@ti.func
+def face_range(f, k, hw, hh, r, pu, pv, reach_r):
+    """Index range [lo, hi] of the discs on face ``f`` whose centres lie within ``reach_r``
+    of the body-frame point (pu, pv); empty when lo > hi. Matches :func:`disc_local`."""
+    u0, v0, du, dv, length = face_line(f, hw, hh, r)
+    ru = pu - u0
+    rv = pv - v0
     along = ru * du + rv * dv
     perp = ti.abs(ru * dv - rv * du)
     lo = 1
     hi = 0
     if perp < reach_r:
         half = ti.sqrt(reach_r * reach_r - perp * perp)
-        step = length / k
-        if step > 1e-12 * (hw + hh):
-            lo = ti.max(0, ti.cast(ti.ceil((along - half) / step), ti.i32))
-            hi = ti.min(k - 1, ti.cast(ti.floor((along + half) / step), ti.i32))
+        if length > 1e-12 * k * (hw + hh):
+            per = k / length
+            lo = ti.max(0, ti.cast(ti.ceil((along - half) * per), ti.i32))
+            hi = ti.min(k - 1, ti.cast(ti.floor((along + half) * per), ti.i32))
         elif ru * ru + rv * rv < reach_r * reach_r:
             lo = 0
             hi = k - 1
     return lo, hi
+
+
+@ti.func
+def line_window(a0, d, limit, lo, hi):
+    """Narrow [lo, hi] to the integers ``t`` with ``|a0 + t d| <= limit`` (with a little
+    slack: callers still test each point exactly)."""
+    lo_out = lo
+    hi_out = hi
+    slack = 1e-9 * (limit + ti.abs(a0)) + 1e-12
+    if ti.abs(d) > 1e-300:
+        inv = 1.0 / d
+        t1 = (-limit - slack - a0) * inv
+        t2 = (limit + slack - a0) * inv
+        if d < 0:
+            t1, t2 = t2, t1
+        lo_out = ti.max(lo, ti.cast(ti.min(ti.max(ti.ceil(t1), -1.0), 1e9), ti.i32))
+        hi_out = ti.min(hi, ti.cast(ti.max(ti.min(ti.floor(t2), 1e9), -1.0), ti.i32))
+    elif ti.abs(a0) > limit + slack:
+        lo_out = 1
+        hi_out = 0
+    return lo_out, hi_out

@@ -35,7 +35,7 @@ Phases (semi-implicit Euler, velocities first):
 
 import taichi as ti
 
-from .contacts import cross2, disc_local, face_range, to_world
+from .contacts import cross2, disc_local, face_line, face_range, line_window, to_world
 from .hydrostatics import potential_energy, submerged_moments
 from .layout import (
     ACC_COLLISION,
@@ -262,30 +262,39 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
     dz = zj - zi
     cu = dx * ci + dz * si  # j's centre in i's frame
     cv = -dx * si + dz * ci
-    outer = b[j, BOUND] + ri + rch
     touch = ri + rj + rch
+    faces = 4
     if boxes_apart(cu, cv, ci * cj + si * sj, sj * ci - cj * si, hwi, hhi, hwj, hhj, rch):
-        outer = -1.0  # the rectangles (which contain the discs) cannot meet this step
-    wsum = 0.0
-    pu = 0.0
-    pv = 0.0
-    nu = 0.0
-    nv = 0.0
+        faces = 0  # the rectangles (which contain the discs) cannot meet this step
+    # weighted sums of (1, contact point u, v, normal u, v): by motion - gap, and by
+    # rch - gap for a standby contact
+    near = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
+    standby = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
     gap = 1e30
-    wsum2 = 0.0  # the same sums weighted by rch - gap, for a standby contact
-    pu2 = 0.0
-    pv2 = 0.0
-    nu2 = 0.0
-    nv2 = 0.0
-    for fa in range(4):
-        lo_a, hi_a = face_range(fa, k, hwi, hhi, ri, cu, cv, outer)
+    # j's tilt relative to i, and j's faces' disc lines (in j's frame), used per disc below
+    c = ci * cj + si * sj
+    s = sj * ci - cj * si
+    lim_u = hwj + ri + rch
+    lim_v = hhj + ri + rch
+    for fa in range(faces):
+        lo_a, hi_a = 0, k - 1
+        # i's discs on this face, in j's frame, are (au0, av0) + ia (dau, dav): keep those
+        # inside j's box grown by ri + rch (the exact test is repeated per disc)
+        u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
+        step = length / k
+        eu = u0 - cu
+        ev = v0 - cv
+        au0 = eu * c + ev * s
+        av0 = -eu * s + ev * c
+        dau = step * (du * c + dv * s)
+        dav = step * (-du * s + dv * c)
+        lo_a, hi_a = line_window(au0, dau, lim_u, lo_a, hi_a)
+        if lo_a <= hi_a:
+            lo_a, hi_a = line_window(av0, dav, lim_v, lo_a, hi_a)
         for ia in range(lo_a, hi_a + 1):
-            wa = to_world(disc_local(fa * k + ia, k, hwi, hhi, ri), xi, zi, ci, si)
-            ex = wa[0] - xj
-            ez = wa[1] - zj
-            au = ex * cj + ez * sj  # disc of i in j's frame
-            av = -ex * sj + ez * cj
-            if ti.abs(au) > hwj + ri + rch or ti.abs(av) > hhj + ri + rch:
+            au = au0 + ia * dau  # disc of i in j's frame
+            av = av0 + ia * dav
+            if ti.abs(au) > lim_u or ti.abs(av) > lim_v:
                 continue
             for fb in range(4):
                 # j's faces are axis-aligned in its frame: a cheap distance test first
@@ -296,42 +305,34 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
                     off = au + (hwj - rj)
                 elif fb == 3:
                     off = av + (hhj - rj)
-                if ti.abs(off) >= touch:
-                    continue
-                lo_b, hi_b = face_range(fb, k, hwj, hhj, rj, au, av, touch)
-                for ib in range(lo_b, hi_b + 1):
-                    lb = disc_local(fb * k + ib, k, hwj, hhj, rj)
-                    du = au - lb[0]
-                    dv = av - lb[1]
-                    dist = ti.sqrt(du * du + dv * dv)
-                    g = dist - ri - rj
-                    if g < rch and dist > 0:
-                        t = (rj + 0.5 * g) / dist
-                        if g < motion:
-                            w = motion - g
-                            wsum += w
-                            pu += w * (lb[0] + du * t)
-                            pv += w * (lb[1] + dv * t)
-                            nu += w * du / dist
-                            nv += w * dv / dist
-                        w2 = rch - g
-                        wsum2 += w2
-                        pu2 += w2 * (lb[0] + du * t)
-                        pv2 += w2 * (lb[1] + dv * t)
-                        nu2 += w2 * du / dist
-                        nv2 += w2 * dv / dist
-                        gap = ti.min(gap, g)
+                if ti.abs(off) < touch:
+                    lo_b, hi_b = face_range(fb, k, hwj, hhj, rj, au, av, touch)
+                    ub, vb, dub, dvb, lenb = face_line(fb, hwj, hhj, rj)
+                    stepb = lenb / k
+                    for ib in range(lo_b, hi_b + 1):
+                        lbu = ub + ib * stepb * dub
+                        lbv = vb + ib * stepb * dvb
+                        du_ = au - lbu
+                        dv_ = av - lbv
+                        dist = ti.sqrt(du_ * du_ + dv_ * dv_)
+                        g = dist - ri - rj
+                        if g < rch and dist > 0:
+                            inv = 1.0 / dist
+                            t = (rj + 0.5 * g) * inv
+                            term = ti.Vector([1.0, lbu + du_ * t, lbv + dv_ * t, du_ * inv, dv_ * inv])
+                            if g < motion:
+                                near += (motion - g) * term
+                            standby += (rch - g) * term
+                            gap = ti.min(gap, g)
     if gap < rch:
-        if wsum <= 0:
-            wsum = wsum2
-            pu = pu2
-            pv = pv2
-            nu = nu2
-            nv = nv2
-        qu = pu / wsum
-        qv = pv / wsum
-        nx = nu * cj - nv * sj
-        nz = nu * sj + nv * cj
+        sums = near
+        if near[0] <= 0:
+            sums = standby
+        wsum = sums[0]
+        qu = sums[1] / wsum
+        qv = sums[2] / wsum
+        nx = sums[3] * cj - sums[4] * sj
+        nz = sums[3] * sj + sums[4] * cj
         nn = ti.sqrt(nx * nx + nz * nz)
         if nn <= 1e-12 * wsum:
             # symmetric overlap: the disc normals cancel; push along the centre line instead
