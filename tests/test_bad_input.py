@@ -98,14 +98,19 @@ CASES = [
     ("discs-zero", scene_with({"contacts.discs": 0}), ["contacts.discs", "0"]),
     ("discs-negative", scene_with({"contacts.discs": -8}), ["contacts.discs", "-8"]),
     ("discs-aspect-shelf", scene_with({"contacts.discs": 8, "shelf.thickness": 4.0}), ["contacts.discs", "8"]),
-    ("discs-aspect-iceberg", scene_with({"contacts.discs": 12}, bergs=[{"x": 3.0, "z": -0.1, "width": 5.0, "thickness": 1.0}]),
-     ["contacts.discs", "12"]),
+    (
+        "discs-aspect-iceberg",
+        scene_with({"contacts.discs": 12}, bergs=[{"x": 3.0, "z": -0.1, "width": 5.0, "thickness": 1.0}]),
+        ["contacts.discs", "12"],
+    ),
     # overlaps at t = 0
     ("overlap-icebergs", scene_with(bergs=[BERGS[0], {**BERGS[1], "x": 1.5}]), ["iceberg[1].x", "1.5"]),
     ("overlap-wall", scene_with(bergs=[{**BERGS[0], "x": 0.3}]), ["iceberg[0].x", "0.3"]),
-    ("overlap-tilted-shelf",
-     scene_with({"scene.effects": ["gravity", "buoyancy", "collisions"], "shelf.gap": 0.0, "shelf.tilt": 0.5}),
-     ["iceberg[", "overlaps iceberg"]),
+    (
+        "overlap-tilted-shelf",
+        scene_with({"scene.effects": ["gravity", "buoyancy", "collisions"], "shelf.gap": 0.0, "shelf.tilt": 0.5}),
+        ["iceberg[", "overlaps iceberg"],
+    ),
     ("overlap-wall-moved", scene_with({"physics.wall_x": 2.0}, bergs=BERGS), ["iceberg[0].x", "1.0"]),
     # TOML syntax (line and column)
     ("toml-double-equals", scene_with().replace("dt = 0.01", "dt = = 0.01"), ["line", "column"]),
@@ -225,8 +230,18 @@ def test_existing_output_is_refused_and_untouched(tmp_path, capsys):
         (["--threads", "0"], ["--threads", "0"]),
         (["--arch", "tpu"], ["--arch", "tpu"]),
     ],
-    ids=["set-type", "set-nan", "set-range", "set-unknown-key", "set-no-section", "set-no-value", "set-iceberg",
-         "set-discs", "threads-0", "arch-unknown"],
+    ids=[
+        "set-type",
+        "set-nan",
+        "set-range",
+        "set-unknown-key",
+        "set-no-section",
+        "set-no-value",
+        "set-iceberg",
+        "set-discs",
+        "threads-0",
+        "arch-unknown",
+    ],
 )
 def test_bad_command_line_values(tmp_path, capsys, args, needles):
     path = tmp_path / "scene.toml"

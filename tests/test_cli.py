@@ -99,8 +99,17 @@ def tiny_run(tiny):
     out = tiny / "run.h5"
     out.write_bytes(b"junk from an earlier attempt")
     cmd = melange_ti_command() + [
-        "run", "tiny.toml", "--out", "run.h5", "--overwrite", "--threads", "1",
-        "--set", f"time.duration={DURATION}", "--set", f"physics.restitution={RESTITUTION}",
+        "run",
+        "tiny.toml",
+        "--out",
+        "run.h5",
+        "--overwrite",
+        "--threads",
+        "1",
+        "--set",
+        f"time.duration={DURATION}",
+        "--set",
+        f"physics.restitution={RESTITUTION}",
     ]
     proc = subprocess.run(cmd, cwd=tiny, capture_output=True, text=True, timeout=600)
     return proc, out
@@ -182,8 +191,15 @@ def test_layout_shapes_and_dtypes(run_file):
     assert run_file["groups"]["icebergs"] == sorted(["width", "thickness", "mass", "inertia"])
     assert set(run_file["groups"]["snapshots"]) >= {"time", "x", "z", "theta", "vx", "vz", "omega"}
     assert set(run_file["groups"]["diagnostics"]) >= {
-        "time", "capsized_fraction", "leading_edge", "kinetic_energy", "potential_energy",
-        "drag_dissipated", "collision_dissipated", "correction_work", "contacts",
+        "time",
+        "capsized_fraction",
+        "leading_edge",
+        "kinetic_energy",
+        "potential_energy",
+        "drag_dissipated",
+        "collision_dissipated",
+        "correction_work",
+        "contacts",
     }
     for k in ("width", "thickness", "mass", "inertia"):
         assert run_file[f"icebergs/{k}"].shape == (n,)
@@ -289,8 +305,19 @@ def test_resume_of_a_finished_run_changes_nothing(tiny, tiny_run, capsys):
     proc, out = tiny_run
     assert proc.returncode == 0, proc.stderr
     before = hashlib.sha256(out.read_bytes()).hexdigest()
-    argv = ["run", str(tiny / "tiny.toml"), "--out", str(out), "--resume", "--threads", THREADS,
-            "--set", f"time.duration={DURATION}", "--set", f"physics.restitution={RESTITUTION}"]
+    argv = [
+        "run",
+        str(tiny / "tiny.toml"),
+        "--out",
+        str(out),
+        "--resume",
+        "--threads",
+        THREADS,
+        "--set",
+        f"time.duration={DURATION}",
+        "--set",
+        f"physics.restitution={RESTITUTION}",
+    ]
     rc = cli.main(argv)
     cap = capsys.readouterr()
     assert rc in (0, 2), cap.err

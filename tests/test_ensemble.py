@@ -188,8 +188,23 @@ def test_sweep_resume_overwrite_skip_and_identity(tiny, tmp_path, capsys):
     # the identity property, for a fresh, a resumed and an overwritten run
     for discs, seed in ((8, 1), (8, 2), (12, 1)):
         ref = tmp_path / f"ref_{discs}_{seed}.h5"
-        assert cli.main(["run", str(tiny), "--out", str(ref), "--threads", TEST_THREADS,
-                         "--set", f"contacts.discs={discs}", "--set", f"time.seed={seed}"]) == 0
+        assert (
+            cli.main(
+                [
+                    "run",
+                    str(tiny),
+                    "--out",
+                    str(ref),
+                    "--threads",
+                    TEST_THREADS,
+                    "--set",
+                    f"contacts.discs={discs}",
+                    "--set",
+                    f"time.seed={seed}",
+                ]
+            )
+            == 0
+        )
         _assert_identical(out / f"discs={discs}_seed{seed}.h5", ref)
     capsys.readouterr()
 

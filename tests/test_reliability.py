@@ -37,6 +37,7 @@ PY = sys.executable
 
 # ----------------------------------------------------------------------------- helpers
 
+
 def cli(*args: str) -> list[str]:
     return [PY, "-m", "melange_ti", *args]
 
@@ -124,14 +125,20 @@ def tmpfs(path: Path, size: str, readonly: bool = False):
 
 # ----------------------------------------------------------------------------- scenes
 def paper_like(count: int, duration: float, snap: float, diag: float, ckpt: float, seed: int = 3) -> str:
-    return dumps_toml({
-        "scene": {"name": "nothing_lost", "effects": ["gravity", "buoyancy", "drag", "collisions", "wall"], "precision": "f64"},
-        "physics": {"density_ratio": 0.8946, "restitution": 0.5, "drag": 0.01, "angular_drag": 0.01},
-        "contacts": {"discs": 12},
-        "time": {"dt": 0.01, "duration": duration, "seed": seed},
-        "output": {"snapshot_interval": snap, "diagnostic_interval": diag, "checkpoint_interval": ckpt},
-        "shelf": {"count": count, "width": 1.0, "thickness": 1.4, "gap": 0.1, "tilt": 0.01},
-    })
+    return dumps_toml(
+        {
+            "scene": {
+                "name": "nothing_lost",
+                "effects": ["gravity", "buoyancy", "drag", "collisions", "wall"],
+                "precision": "f64",
+            },
+            "physics": {"density_ratio": 0.8946, "restitution": 0.5, "drag": 0.01, "angular_drag": 0.01},
+            "contacts": {"discs": 12},
+            "time": {"dt": 0.01, "duration": duration, "seed": seed},
+            "output": {"snapshot_interval": snap, "diagnostic_interval": diag, "checkpoint_interval": ckpt},
+            "shelf": {"count": count, "width": 1.0, "thickness": 1.4, "gap": 0.1, "tilt": 0.01},
+        }
+    )
 
 
 KILL_SCENE = dict(count=40, duration=100.0, snap=2.5, diag=0.5, ckpt=10.0)
@@ -194,8 +201,9 @@ def interrupted(tmp_path_factory):
     (d / "scene.toml").write_text(paper_like(**KILL_SCENE))
     common = ["run", "scene.toml", "--threads", "1"]
     procs = {
-        name: subprocess.Popen(cli(*common, "--out", f"{name}.h5"), cwd=d,
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        name: subprocess.Popen(
+            cli(*common, "--out", f"{name}.h5"), cwd=d, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
         for name in ("ref", "kill", "int")
     }
     follower = Follower(d / "kill.h5")
@@ -363,8 +371,13 @@ def test_repeated_kills_at_random_moments_then_resume(tmp_path):
     killed three times at random moments (resuming in between), then finished: bit-identical."""
     scene = paper_like(count=40, duration=300.0, snap=5.0, diag=1.0, ckpt=20.0)
     (tmp_path / "scene.toml").write_text(scene)
-    ref = subprocess.Popen(cli("run", "scene.toml", "--out", "ref.h5", "--threads", "1"), cwd=tmp_path,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    ref = subprocess.Popen(
+        cli("run", "scene.toml", "--out", "ref.h5", "--threads", "1"),
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         rng = np.random.default_rng(12345)
         total = round(300.0 / 5.0) + 1
@@ -400,16 +413,18 @@ def blowup_scene(vz1: float = 0.0) -> str:
     rest (stable at this dt), iceberg 1 a 1 x 1 block released off equilibrium, whose heave
     is unstable under semi-implicit Euler at dt = 5, so its energy runs away."""
     r = 0.8946
-    return dumps_toml({
-        "scene": {"name": "blowup", "effects": ["gravity", "buoyancy"], "precision": "f64"},
-        "physics": {"density_ratio": r},
-        "time": {"dt": 5.0, "duration": 5000.0},
-        "output": {"snapshot_interval": 50.0, "diagnostic_interval": 5.0, "checkpoint_interval": 500.0},
-        "iceberg": [
-            {"x": 0.0, "z": -r * 10.0 + 5.0, "width": 10.0, "thickness": 10.0},
-            {"x": 100.0, "z": -0.3, "vz": vz1, "width": 1.0, "thickness": 1.0},
-        ],
-    })
+    return dumps_toml(
+        {
+            "scene": {"name": "blowup", "effects": ["gravity", "buoyancy"], "precision": "f64"},
+            "physics": {"density_ratio": r},
+            "time": {"dt": 5.0, "duration": 5000.0},
+            "output": {"snapshot_interval": 50.0, "diagnostic_interval": 5.0, "checkpoint_interval": 500.0},
+            "iceberg": [
+                {"x": 0.0, "z": -r * 10.0 + 5.0, "width": 10.0, "thickness": 10.0},
+                {"x": 100.0, "z": -0.3, "vz": vz1, "width": 1.0, "thickness": 1.0},
+            ],
+        }
+    )
 
 
 @pytest.fixture(scope="module")
@@ -419,8 +434,13 @@ def blowups(tmp_path_factory):
     (d / "runaway.toml").write_text(blowup_scene())
     (d / "huge.toml").write_text(blowup_scene(vz1=1e200))
     procs = {
-        name: subprocess.Popen(cli("run", f"{name}.toml", "--out", f"{name}.h5", "--threads", "1"), cwd=d,
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        name: subprocess.Popen(
+            cli("run", f"{name}.toml", "--out", f"{name}.h5", "--threads", "1"),
+            cwd=d,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         for name in ("runaway", "huge")
     }
     res = {}
@@ -638,7 +658,7 @@ def test_debug_mode_no_out_of_range_access(tmp_path):
     assert proc.returncode == 0, proc.stderr[-4000:]
     line = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
     assert line, proc.stdout[-2000:] + proc.stderr[-2000:]
-    res = json.loads(line[0][len("RESULT "):])
+    res = json.loads(line[0][len("RESULT ") :])
     for mode in ("serial", "parallel"):
         assert res[mode]["finite"], mode
         assert res[mode]["contacts"] > 0, f"{mode}: the debug scene made no contacts"

@@ -34,8 +34,14 @@ FUZZ = settings(
 # the type checks and reach the range, multiple-of-dt and geometry checks.
 BASE = {
     "scene": {"name": "fuzz", "effects": ["gravity", "buoyancy", "drag", "collisions", "wall"], "precision": "f64"},
-    "physics": {"density_ratio": 0.8946, "restitution": 0.5, "drag": 0.01, "angular_drag": 0.01,
-                "water_level": 0.0, "wall_x": 0.0},
+    "physics": {
+        "density_ratio": 0.8946,
+        "restitution": 0.5,
+        "drag": 0.01,
+        "angular_drag": 0.01,
+        "water_level": 0.0,
+        "wall_x": 0.0,
+    },
     "contacts": {"discs": 12, "contact_passes": 1},
     "time": {"dt": 0.01, "duration": 1.0, "seed": 1},
     "output": {"snapshot_interval": 0.5, "diagnostic_interval": 0.1},
@@ -220,15 +226,58 @@ def test_arbitrary_text(text):
 
 
 @FUZZ
-@given(st.lists(st.sampled_from([
-    "[scene]", "[physics]", "[contacts]", "[time]", "[output]", "[shelf]", "[[iceberg]]", "[scene.x]",
-    "name = \"s\"", "effects = [\"gravity\", \"wall\"]", "effects = []", "precision = \"f32\"",
-    "dt = 0.01", "dt = 0", "dt = nan", "duration = 0.5", "duration = 1e308", "seed = -3",
-    "discs = 8", "discs = 10", "discs = 12.0", "count = 2", "count = 0", "width = 0.0", "thickness = 9.0",
-    "gap = -1.0", "tilt = 4.0", "x = 0.1", "x = 3.0", "z = inf", "restitution = 1.0001",
-    "density_ratio = 1", "snapshot_interval = 0.015", "water_level = 1e308", "max_partners = 0",
-    "x = 1", "x = 1", "= 1", "[", "\"", "x = \"\\n\"", "x = 1979-05-27T07:32:00Z", "x = [1, \"a\"]",
-]), max_size=12))
+@given(
+    st.lists(
+        st.sampled_from(
+            [
+                "[scene]",
+                "[physics]",
+                "[contacts]",
+                "[time]",
+                "[output]",
+                "[shelf]",
+                "[[iceberg]]",
+                "[scene.x]",
+                'name = "s"',
+                'effects = ["gravity", "wall"]',
+                "effects = []",
+                'precision = "f32"',
+                "dt = 0.01",
+                "dt = 0",
+                "dt = nan",
+                "duration = 0.5",
+                "duration = 1e308",
+                "seed = -3",
+                "discs = 8",
+                "discs = 10",
+                "discs = 12.0",
+                "count = 2",
+                "count = 0",
+                "width = 0.0",
+                "thickness = 9.0",
+                "gap = -1.0",
+                "tilt = 4.0",
+                "x = 0.1",
+                "x = 3.0",
+                "z = inf",
+                "restitution = 1.0001",
+                "density_ratio = 1",
+                "snapshot_interval = 0.015",
+                "water_level = 1e308",
+                "max_partners = 0",
+                "x = 1",
+                "x = 1",
+                "= 1",
+                "[",
+                '"',
+                'x = "\\n"',
+                "x = 1979-05-27T07:32:00Z",
+                'x = [1, "a"]',
+            ]
+        ),
+        max_size=12,
+    )
+)
 def test_toml_fragments(lines):
     """Near-valid TOML assembled from scene-like fragments: a scene or a one-line SceneError."""
     out = _outcome(scn.loads, "\n".join(lines))
@@ -255,10 +304,31 @@ def test_mutated_documents(doc):
 
 @FUZZ
 @given(
-    st.one_of(st.sampled_from([f"{s}.{k}" for s, ks in KNOWN_KEYS.items() for k in ks] + ["time", "a.b.c", ".dt", "time."]),
-              st.text(max_size=15)),
-    st.one_of(st.text(max_size=20), st.sampled_from(["0.005", "nan", "-inf", "1e400", "[1, 2]", '"x"', "true", "{a = 1}",
-                                                     "12", "12.0", "2.5", "[\"gravity\"]", "1979-05-27", "0x10"])),
+    st.one_of(
+        st.sampled_from([f"{s}.{k}" for s, ks in KNOWN_KEYS.items() for k in ks] + ["time", "a.b.c", ".dt", "time."]),
+        st.text(max_size=15),
+    ),
+    st.one_of(
+        st.text(max_size=20),
+        st.sampled_from(
+            [
+                "0.005",
+                "nan",
+                "-inf",
+                "1e400",
+                "[1, 2]",
+                '"x"',
+                "true",
+                "{a = 1}",
+                "12",
+                "12.0",
+                "2.5",
+                '["gravity"]',
+                "1979-05-27",
+                "0x10",
+            ]
+        ),
+    ),
 )
 @example("time.d\rt", "0.01")  # a key with a carriage return: the message must stay one line
 def test_set_overrides(key, value):
@@ -284,6 +354,7 @@ def test_scene_file_bytes(tmp_path_factory, data):
 
 # ----------------------------------------------------------------------------- specific cases
 # Minimal reproductions found by the fuzzers above, kept as plain tests so a failure names them.
+
 
 def test_tiny_dt_with_long_duration_is_a_scene_error():
     """duration / dt overflows to inf: must be a SceneError, not OverflowError."""

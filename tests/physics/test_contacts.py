@@ -479,7 +479,11 @@ def run_hard(m, sc, state, steps, every, order=True, depth=1.0):
     m.set_state(state)
     s = m.sample()
     e0 = s["kinetic"].sum() + s["potential"].sum()
-    bounds = {"interpenetration": depth * geo.r.min(), "wall penetration": depth * geo.r.min(), "energy rise": 1e-3 * k["mass"].sum()}
+    bounds = {
+        "interpenetration": depth * geo.r.min(),
+        "wall penetration": depth * geo.r.min(),
+        "energy rise": 1e-3 * k["mass"].sum(),
+    }
     worst = {key: -np.inf for key in bounds}
     first = {}
     order0 = np.argsort(s["x"], kind="stable")
