@@ -172,6 +172,7 @@ class Model:
         if self.mode == "serial":
             S.steps_serial(self.fx, steps, self.b, self.bi, self.cd, self.cp, self.cells, self.par, self.acc, self.ipar)
         else:
+            S.orient_all(self.b)  # the state may have been set from the host since the last call
             for _ in range(steps):
                 self._step_parallel()
         if self.fx.collisions and self.ipar[L.OVERFLOW]:
@@ -198,8 +199,9 @@ class Model:
                     self._detect()
                 S.impulses(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc, self.ipar)
                 S.check_reach(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.ipar)
-                redetect = bool(self.ipar[L.GROWN])
-                if not redetect and not self.ipar[L.DEEP]:
+                again = int(self.ipar[L.AGAIN])  # the one device read per step
+                redetect = again == 2
+                if again == 0:
                     break
         S.drift_all(self.b, self.par)
         if self.contacts:
@@ -214,6 +216,7 @@ class Model:
         """
         if not self.contacts:
             return [], []
+        S.orient_all(self.b)
         self._detect()
         bi = self.bi.to_numpy()
         cp = self.cp.to_numpy()

@@ -63,29 +63,6 @@ def face_line(f, hw, hh, r):
 
 
 @ti.func
-def face_range(f, k, hw, hh, r, pu, pv, reach_r):
-    """Index range [lo, hi] of the discs on face ``f`` whose centres lie within ``reach_r``
-    of the body-frame point (pu, pv); empty when lo > hi. Matches :func:`disc_local`."""
-    u0, v0, du, dv, length = face_line(f, hw, hh, r)
-    ru = pu - u0
-    rv = pv - v0
-    along = ru * du + rv * dv
-    perp = ti.abs(ru * dv - rv * du)
-    lo = 1
-    hi = 0
-    if perp < reach_r:
-        half = ti.sqrt(reach_r * reach_r - perp * perp)
-        if length > 1e-12 * k * (hw + hh):
-            per = k / length
-            lo = ti.max(0, ti.cast(ti.ceil((along - half) * per), ti.i32))
-            hi = ti.min(k - 1, ti.cast(ti.floor((along + half) * per), ti.i32))
-        elif ru * ru + rv * rv < reach_r * reach_r:
-            lo = 0
-            hi = k - 1
-    return lo, hi
-
-
-@ti.func
 def line_window(a0, d, limit, lo, hi):
     """Narrow [lo, hi] to the integers ``t`` with ``|a0 + t d| <= limit`` (with a little
     slack: callers still test each point exactly)."""

@@ -26,14 +26,13 @@ def corner(k: ti.template(), hw, hh, c, s):
 
 
 @ti.func
-def submerged_moments(z, theta, hw, hh, water_level):
+def submerged_moments(z, c, s, hw, hh, water_level):
     """(A, Sx, Sz) of the part of the rectangle below ``water_level``.
 
-    ``z``: centre height; ``theta``: tilt (CCW); ``hw``, ``hh``: half width and half
-    thickness. Moments are about the centre of mass, so the buoyancy torque is ``rho g Sx``.
+    ``z``: centre height; ``c``, ``s``: cosine and sine of the tilt (CCW); ``hw``, ``hh``:
+    half width and half thickness. Moments are about the centre of mass, so the buoyancy
+    torque is ``rho g Sx``.
     """
-    c = ti.cos(theta)
-    s = ti.sin(theta)
     level = water_level - z
     m = ti.Vector([0.0, 0.0, 0.0])
     exit_pt = ti.Vector([0.0, 0.0])
@@ -62,12 +61,13 @@ def submerged_moments(z, theta, hw, hh, water_level):
 
 
 @ti.func
-def potential_energy(z, theta, hw, hh, mass, water_level, gravity: ti.template(), buoyancy: ti.template()):
-    """``U = m g (z_G - wl) - rho_w g int_sub (z - wl) dA`` for the effects named (SPEC section 2)."""
+def potential_energy(z, c, s, hw, hh, mass, water_level, gravity: ti.template(), buoyancy: ti.template()):
+    """``U = m g (z_G - wl) - rho_w g int_sub (z - wl) dA`` for the effects named (SPEC section 2);
+    ``c``, ``s``: cosine and sine of the tilt."""
     u = 0.0
     if ti.static(gravity):
         u += mass * (z - water_level)
     if ti.static(buoyancy):
-        m = submerged_moments(z, theta, hw, hh, water_level)
+        m = submerged_moments(z, c, s, hw, hh, water_level)
         u -= m[2] + m[0] * (z - water_level)
     return u

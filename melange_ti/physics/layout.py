@@ -52,8 +52,8 @@ ACC_COLLISION, ACC_CORRECTION, ACC_WALL_IMPULSE, ACC_IMPULSE = 0, 1, 2, 3
 NA = 4
 
 # ipar (i64)
-N, K, SLOTS, PASSES, NCELLS, DISCS, CONTACTS, OVERFLOW, GROWN, DEEP = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9
-NQ = 10
+N, K, SLOTS, PASSES, NCELLS, DISCS, CONTACTS, OVERFLOW, AGAIN = 0, 1, 2, 3, 4, 5, 6, 7, 8
+NQ = 9
 
 # Bounds on the iterations inside one step (see physics.step).
 MAX_DETECT = 16  # impulse passes again while a contact would still close by > DEEP_FRACTION r,

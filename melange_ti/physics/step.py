@@ -25,7 +25,9 @@ Phases (semi-implicit Euler, velocities first):
                  impulse made a body faster than the reach it was searched with (a struck
                  iceberg in a packed row), detection runs again first (at most
                  ``MAX_DETECT`` rounds), so chains cannot tunnel.
-6. ``drift``     x += dt v, theta += dt omega.
+6. ``drift``     x += dt v, theta += dt omega; cos and sin of the new tilt are cached
+                 (COS, SIN) for the correction, the next step's forces and contacts: the
+                 one place a step evaluates trigonometric functions.
 7. ``correct``   sequential, same order: the overlap left after the drift (estimated from
                  the contact gap, the final velocities and earlier pushes) is removed along
                  the normal, split by inverse mass; its potential-energy change is booked.
@@ -35,13 +37,14 @@ Phases (semi-implicit Euler, velocities first):
 
 import taichi as ti
 
-from .contacts import cross2, disc_local, face_line, face_range, line_window, to_world
+from .contacts import cross2, disc_local, face_line, line_window, to_world
 from .hydrostatics import potential_energy, submerged_moments
 from .layout import (
     ACC_COLLISION,
     ACC_CORRECTION,
     ACC_IMPULSE,
     ACC_WALL_IMPULSE,
+    AGAIN,
     BOUND,
     BOUND_MAX,
     CELL,
@@ -53,7 +56,6 @@ from .layout import (
     COUNT,
     CPX,
     CPZ,
-    DEEP,
     DEEP_FRACTION,
     DISCS,
     DRAG_ANG,
@@ -61,7 +63,6 @@ from .layout import (
     DRAG_WORK,
     DT,
     FILL,
-    GROWN,
     INERTIA,
     KINETIC,
     MASS,
@@ -115,7 +116,7 @@ def kick(fx: ti.template(), b: ti.template(), par: ti.template(), i):
     if ti.static(fx.gravity):
         fz -= m
     if ti.static(fx.buoyancy):
-        mo = submerged_moments(b[i, Z], b[i, TH], 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], par[WATER])
+        mo = submerged_moments(b[i, Z], b[i, COS], b[i, SIN], 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], par[WATER])
         fz += mo[0]
         tau += mo[1]
     if ti.static(fx.gravity or fx.buoyancy):
@@ -133,18 +134,27 @@ def kick(fx: ti.template(), b: ti.template(), par: ti.template(), i):
 
 
 @ti.func
+def orient(b: ti.template(), i):
+    """Cache cos and sin of body i's tilt (COS, SIN): the one place a step evaluates them."""
+    b[i, COS] = ti.cos(b[i, TH])
+    b[i, SIN] = ti.sin(b[i, TH])
+
+
+@ti.func
 def drift(b: ti.template(), par: ti.template(), i):
     dt = par[DT]
     b[i, X] += dt * b[i, VX]
     b[i, Z] += dt * b[i, VZ]
     b[i, TH] += dt * b[i, OM]
+    orient(b, i)
 
 
 @ti.func
 def body_energy(fx: ti.template(), b: ti.template(), par: ti.template(), i):
     return potential_energy(
         b[i, Z],
-        b[i, TH],
+        b[i, COS],
+        b[i, SIN],
         0.5 * b[i, WIDTH],
         0.5 * b[i, THICK],
         b[i, MASS],
@@ -170,10 +180,8 @@ def speed(b: ti.template(), i):
 @ti.func
 def reach(b: ti.template(), par: ti.template(), i):
     """How far body i may move this step, including what an impulse from the fastest body
-    could add, ``(1 + e) * SPEED_MAX``; caches cos/sin of the tilt for the contact phases.
-    (A chain of impulses can exceed even that; then the step detects again, see ``outran``.)"""
-    b[i, COS] = ti.cos(b[i, TH])
-    b[i, SIN] = ti.sin(b[i, TH])
+    could add, ``(1 + e) * SPEED_MAX``. (A chain of impulses can exceed even that; then the
+    step detects again, see ``outran``.)"""
     motion = par[DT] * speed(b, i)
     b[i, MOTION] = motion
     r = motion + par[DT] * (1.0 + par[RESTITUTION]) * par[SPEED_MAX]
@@ -251,7 +259,7 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
     neighbour.
     Only discs that can matter are visited: on each face of i, the discs within reach of
     j's bounding circle; for each of those, on each face of j, the discs within reach of
-    it (index ranges from :func:`face_range`). Sums are taken in j's body frame.
+    it (an index range from its distance along the face). Sums are taken in j's body frame.
     """
     k = ti.cast(ipar[K], ti.i32)
     ci, si, cj, sj = b[i, COS], b[i, SIN], b[j, COS], b[j, SIN]
@@ -276,11 +284,36 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
     s = sj * ci - cj * si
     lim_u = hwj + ri + rch
     lim_v = hhj + ri + rch
+    touch2 = touch * touch
+    # j's disc-centre rectangle and its disc spacing along the u- and v-faces (a face of
+    # zero length holds k coincident discs: every index is then in range)
+    iuj = hwj - rj
+    ivj = hhj - rj
+    stu = 2.0 * iuj / k
+    stv = 2.0 * ivj / k
+    inv_stu = 0.0
+    inv_stv = 0.0
+    if stu > 1e-12 * (hwj + hhj):
+        inv_stu = 1.0 / stu
+    if stv > 1e-12 * (hwj + hhj):
+        inv_stv = 1.0 / stv
+    # in i's frame: i's disc-centre rectangle, and how far j's disc centres reach from
+    # j's centre along i's axes plus the touching distance
+    iui = hwi - ri
+    ivi = hhi - ri
+    ext_u = iuj * ti.abs(c) + ivj * ti.abs(s) + touch
+    ext_v = iuj * ti.abs(s) + ivj * ti.abs(c) + touch
     for fa in range(faces):
         lo_a, hi_a = 0, k - 1
         # i's discs on this face, in j's frame, are (au0, av0) + ia (dau, dav): keep those
         # inside j's box grown by ri + rch (the exact test is repeated per disc)
         u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
+        # the face's segment spans [u0, u1] x [v0, v1] in i's frame: skip the face when that
+        # box misses the box around j's disc centres grown by ``touch``
+        u1 = u0 + length * du
+        v1 = v0 + length * dv
+        if ti.max(u0, u1) < cu - ext_u or ti.min(u0, u1) > cu + ext_u or ti.max(v0, v1) < cv - ext_v or ti.min(v0, v1) > cv + ext_v:
+            continue
         step = length / k
         eu = u0 - cu
         ev = v0 - cv
@@ -296,30 +329,41 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
             av = av0 + ia * dav
             if ti.abs(au) > lim_u or ti.abs(av) > lim_v:
                 continue
-            for fb in range(4):
-                # j's faces are axis-aligned in its frame: a cheap distance test first
-                off = au - (hwj - rj)
-                if fb == 1:
-                    off = av - (hhj - rj)
-                elif fb == 2:
-                    off = au + (hwj - rj)
-                elif fb == 3:
-                    off = av + (hhj - rj)
-                if ti.abs(off) < touch:
-                    lo_b, hi_b = face_range(fb, k, hwj, hhj, rj, au, av, touch)
-                    ub, vb, dub, dvb, lenb = face_line(fb, hwj, hhj, rj)
-                    stepb = lenb / k
+            # j's faces are axis-aligned in its frame: face fb's disc centres are
+            # (perpendicular offset ``perp``, along-face offset ``along - ib * step``) away
+            for fb in ti.static(range(4)):
+                perp = au - iuj
+                along = av + ivj
+                st = stv
+                inv_st = inv_stv
+                if ti.static(fb == 1):
+                    perp, along, st, inv_st = av - ivj, iuj - au, stu, inv_stu
+                elif ti.static(fb == 2):
+                    perp, along = au + iuj, ivj - av
+                elif ti.static(fb == 3):
+                    perp, along, st, inv_st = av + ivj, au + iuj, stu, inv_stu
+                if ti.abs(perp) < touch:
+                    lo_b, hi_b = 0, k - 1
+                    if inv_st > 0:
+                        lo_b = ti.max(0, ti.cast(ti.ceil((along - touch) * inv_st), ti.i32))
+                        hi_b = ti.min(k - 1, ti.cast(ti.floor((along + touch) * inv_st), ti.i32))
                     for ib in range(lo_b, hi_b + 1):
-                        lbu = ub + ib * stepb * dub
-                        lbv = vb + ib * stepb * dvb
-                        du_ = au - lbu
-                        dv_ = av - lbv
-                        dist = ti.sqrt(du_ * du_ + dv_ * dv_)
-                        g = dist - ri - rj
-                        if g < rch and dist > 0:
+                        a = along - ib * st
+                        d2 = perp * perp + a * a
+                        if d2 < touch2 and d2 > 0:
+                            # offset from j's disc to i's disc, in j's frame
+                            du_, dv_ = perp, a
+                            if ti.static(fb == 1):
+                                du_, dv_ = -a, perp
+                            elif ti.static(fb == 2):
+                                du_, dv_ = perp, -a
+                            elif ti.static(fb == 3):
+                                du_, dv_ = a, perp
+                            dist = ti.sqrt(d2)
+                            g = dist - ri - rj
                             inv = 1.0 / dist
                             t = (rj + 0.5 * g) * inv
-                            term = ti.Vector([1.0, lbu + du_ * t, lbv + dv_ * t, du_ * inv, dv_ * inv])
+                            term = ti.Vector([1.0, au - du_ + du_ * t, av - dv_ + dv_ * t, du_ * inv, dv_ * inv])
                             if g < motion:
                                 near += (motion - g) * term
                             standby += (rch - g) * term
@@ -350,7 +394,7 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
 def wall_gap(b: ti.template(), par: ti.template(), ipar: ti.template(), i):
     """Smallest gap between body i's discs and the wall at the current position."""
     k = ti.cast(ipar[K], ti.i32)
-    c, s = ti.cos(b[i, TH]), ti.sin(b[i, TH])
+    c, s = b[i, COS], b[i, SIN]
     hw, hh, r = 0.5 * b[i, WIDTH], 0.5 * b[i, THICK], b[i, RADIUS]
     gap = 1e30
     for a in range(ti.cast(ipar[DISCS], ti.i32)):
@@ -577,19 +621,18 @@ def deep_approach(b: ti.template(), par: ti.template(), i, j, px, pz, nx, nz, ga
 
 
 @ti.func
-def deep_approaches(
-    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template()
+def deep_contacts(
+    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), par: ti.template(), i
 ):
+    """How many of body i's contacts (wall, partners j > i) still approach deeply."""
     count = 0
-    for i in range(b.shape[0]):
-        if ti.static(fx.wall):
-            if bi[i, WALL_ON]:
-                count += deep_approach(b, par, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
-        if ti.static(fx.collisions):
-            for s in range(bi[i, NCONTACT]):
-                count += deep_approach(
-                    b, par, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP]
-                )
+    if ti.static(fx.wall):
+        if bi[i, WALL_ON]:
+            count += deep_approach(b, par, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
+    if ti.static(fx.collisions):
+        for s in range(bi[i, NCONTACT]):
+            j = cp[i, s]
+            count += deep_approach(b, par, i, j, cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
     return count
 
 
@@ -681,31 +724,53 @@ def detect_all_serial(
         detect(fx, b, bi, cd, cp, cells, par, ipar, i, size)
 
 
+@ti.func
+def one_step_serial(
+    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), cells: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template()
+):
+    """Phases 1-7 of one step with serial loops (COS, SIN valid on entry)."""
+    n = b.shape[0]
+    for i in range(n):
+        kick(fx, b, par, i)
+    if ti.static(fx.collisions or fx.wall):
+        redetect = 1
+        for _attempt in range(MAX_DETECT):
+            if redetect:
+                detect_all_serial(fx, b, bi, cd, cp, cells, par, ipar)
+            impulse_pass(fx, b, bi, cd, cp, par, acc, ipar)
+            grown = 0
+            for i in range(n):
+                grown += outran(b, par, i)
+            redetect = grown
+            deep = 0
+            if grown == 0:
+                for i in range(n):
+                    deep += deep_contacts(fx, b, bi, cd, cp, par, i)
+            if grown == 0 and deep == 0:
+                break
+    for i in range(n):
+        drift(b, par, i)
+    if ti.static(fx.collisions or fx.wall):
+        correction_pass(fx, b, bi, cd, cp, par, acc, ipar)
+
+
 # ---------------------------------------------------------------- kernels
 @ti.kernel
 def steps_serial(fx: ti.template(), steps: ti.i32, b: arr, bi: arr, cd: arr, cp: arr, cells: arr, par: arr, acc: arr, ipar: arr):
     """``steps`` whole steps in one call, every loop serial (small N: no launch costs)."""
     ti.loop_config(serialize=True)
-    for _ in range(steps):
+    for _ in range(1):
         n = b.shape[0]
         for i in range(n):
-            kick(fx, b, par, i)
-        if ti.static(fx.collisions or fx.wall):
-            redetect = 1
-            for _attempt in range(MAX_DETECT):
-                if redetect:
-                    detect_all_serial(fx, b, bi, cd, cp, cells, par, ipar)
-                impulse_pass(fx, b, bi, cd, cp, par, acc, ipar)
-                grown = 0
-                for i in range(n):
-                    grown += outran(b, par, i)
-                redetect = grown
-                if grown == 0 and deep_approaches(fx, b, bi, cd, cp, par) == 0:
-                    break
-        for i in range(n):
-            drift(b, par, i)
-        if ti.static(fx.collisions or fx.wall):
-            correction_pass(fx, b, bi, cd, cp, par, acc, ipar)
+            orient(b, i)  # the state may have been set from the host since the last call
+        for _step in range(steps):
+            one_step_serial(fx, b, bi, cd, cp, cells, par, acc, ipar)
+
+
+@ti.kernel
+def orient_all(b: arr):
+    for i in range(b.shape[0]):
+        orient(b, i)
 
 
 @ti.kernel
@@ -769,13 +834,14 @@ def impulses(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, acc
 
 @ti.kernel
 def check_reach(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, ipar: arr):
-    ipar[GROWN] = 0
+    """ipar[AGAIN]: 2 if some body outran its reach (detect again), else 1 if some contact
+    still approaches deeply (another impulse pass), else 0. One parallel loop, one flag."""
+    ipar[AGAIN] = 0
     for i in range(b.shape[0]):
         if outran(b, par, i):
-            ipar[GROWN] = 1
-    ipar[DEEP] = 0
-    for _ in range(1):
-        ipar[DEEP] = deep_approaches(fx, b, bi, cd, cp, par)
+            ti.atomic_max(ipar[AGAIN], 2)
+        elif deep_contacts(fx, b, bi, cd, cp, par, i) > 0:
+            ti.atomic_max(ipar[AGAIN], 1)
 
 
 @ti.kernel
@@ -795,5 +861,6 @@ def correct(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, par: arr, acc:
 def energies(fx: ti.template(), b: arr, par: arr):
     """Per-body kinetic and potential energy into the KINETIC and POTENTIAL columns."""
     for i in range(b.shape[0]):
+        orient(b, i)
         b[i, KINETIC] = 0.5 * b[i, MASS] * (b[i, VX] ** 2 + b[i, VZ] ** 2) + 0.5 * b[i, INERTIA] * b[i, OM] ** 2
         b[i, POTENTIAL] = body_energy(fx, b, par, i)
