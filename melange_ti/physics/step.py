@@ -519,6 +519,19 @@ def resolve(b: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.t
 
 
 @ti.func
+def predicted_gap(b: ti.template(), par: ti.template(), i, j, px, pz, nx, nz, gap):
+    """Gap of the contact (i, j) at the end of the step: its gap when found, advanced
+    linearly with the final velocities (arms from the bodies' positions at the start of
+    the step). Call after the drift and before any correction."""
+    dt = par[DT]
+    rx1 = px - (b[i, X] - dt * b[i, VX])
+    rz1 = pz - (b[i, Z] - dt * b[i, VZ])
+    rx2 = px - (b[j, X] - dt * b[j, VX])
+    rz2 = pz - (b[j, Z] - dt * b[j, VZ])
+    return gap + dt * normal_speed(b, i, j, rx1, rz1, rx2, rz2, nx, nz)
+
+
+@ti.func
 def push(
     fx: ti.template(),
     b: ti.template(),
@@ -528,34 +541,24 @@ def push(
     sweep,
     i,
     j,
-    px,
-    pz,
     nx,
     nz,
-    gap,
+    g_end,
 ):
     """Remove the overlap left after the drift, split by inverse mass (pair centre fixed).
 
-    The overlap is the contact's gap advanced linearly with the final velocities plus the
-    pushes so far; at the wall (normal fixed) it is measured exactly from the discs. A body
-    moved for the first time in this pass records its potential energy (POTENTIAL column)
-    and is marked with the sweep (PUSHED); the pass books the energy change per body."""
-    dt = par[DT]
-    # arms at the start of the step, when the contact was found
-    rx1 = px - (b[i, X] - dt * b[i, VX])
-    rz1 = pz - (b[i, Z] - dt * b[i, VZ])
-    rx2 = 0.0
-    rz2 = 0.0
+    Between two icebergs the overlap is ``g_end`` (:func:`predicted_gap`) plus the pushes
+    so far along the normal; at the wall (j < 0, normal fixed) it is measured exactly from
+    the discs. A body moved for the first time in this pass records its potential energy
+    (POTENTIAL column) and is marked with the sweep (PUSHED); the pass books the energy
+    change per body."""
     inv1 = 1.0 / b[i, MASS]
     inv2 = 0.0
-    moved = b[i, SHIFT_X] * nx + b[i, SHIFT_Z] * nz
+    g = 0.0
     if j >= 0:
-        rx2 = px - (b[j, X] - dt * b[j, VX])
-        rz2 = pz - (b[j, Z] - dt * b[j, VZ])
         inv2 = 1.0 / b[j, MASS]
-        moved -= b[j, SHIFT_X] * nx + b[j, SHIFT_Z] * nz
-    g = gap + dt * normal_speed(b, i, j, rx1, rz1, rx2, rz2, nx, nz) + moved
-    if j < 0:
+        g = g_end + (b[i, SHIFT_X] - b[j, SHIFT_X]) * nx + (b[i, SHIFT_Z] - b[j, SHIFT_Z]) * nz
+    else:
         g = wall_gap(b, par, ipar, i)
     pushed = 0
     if g < -1e-12:
@@ -652,6 +655,12 @@ def correction_pass(
         b[i, SHIFT_X] = 0.0
         b[i, SHIFT_Z] = 0.0
         bi[i, PUSHED] = -1  # the last sweep that moved body i
+        if ti.static(fx.collisions):
+            # each contact's end-of-step gap, once, before anything is pushed (stored in CGAP)
+            for s in range(bi[i, NCONTACT]):
+                cd[i, s, CGAP] = predicted_gap(
+                    b, par, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP]
+                )
     for sweep in range(MAX_CORRECT):
         pushed = 0
         # after the first sweep, only contacts of a body moved since the previous sweep
@@ -659,26 +668,12 @@ def correction_pass(
         for i in range(n):
             if ti.static(fx.wall):
                 if bi[i, WALL_ON] and bi[i, PUSHED] >= since:
-                    pushed += push(fx, b, bi, par, ipar, sweep, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
+                    pushed += push(fx, b, bi, par, ipar, sweep, i, -1, 1.0, 0.0, 0.0)
             if ti.static(fx.collisions):
                 for s in range(bi[i, NCONTACT]):
                     j = cp[i, s]
                     if ti.max(bi[i, PUSHED], bi[j, PUSHED]) >= since:
-                        pushed += push(
-                            fx,
-                            b,
-                            bi,
-                            par,
-                            ipar,
-                            sweep,
-                            i,
-                            j,
-                            cd[i, s, CPX],
-                            cd[i, s, CPZ],
-                            cd[i, s, CNX],
-                            cd[i, s, CNZ],
-                            cd[i, s, CGAP],
-                        )
+                        pushed += push(fx, b, bi, par, ipar, sweep, i, j, cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
         if pushed == 0:
             break
     # the corrections' change of potential energy, per moved body, in body order
