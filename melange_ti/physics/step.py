@@ -297,10 +297,8 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
         inv_stu = 1.0 / stu
     if stv > 1e-12 * (hwj + hhj):
         inv_stv = 1.0 / stv
-    # in i's frame: i's disc-centre rectangle, and how far j's disc centres reach from
-    # j's centre along i's axes plus the touching distance
-    iui = hwi - ri
-    ivi = hhi - ri
+    # in i's frame: how far j's disc centres reach from j's centre along i's axes, plus the
+    # touching distance
     ext_u = iuj * ti.abs(c) + ivj * ti.abs(s) + touch
     ext_v = iuj * ti.abs(s) + ivj * ti.abs(c) + touch
     for fa in range(faces):
@@ -312,7 +310,12 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
         # box misses the box around j's disc centres grown by ``touch``
         u1 = u0 + length * du
         v1 = v0 + length * dv
-        if ti.max(u0, u1) < cu - ext_u or ti.min(u0, u1) > cu + ext_u or ti.max(v0, v1) < cv - ext_v or ti.min(v0, v1) > cv + ext_v:
+        if (
+            ti.max(u0, u1) < cu - ext_u
+            or ti.min(u0, u1) > cu + ext_u
+            or ti.max(v0, v1) < cv - ext_v
+            or ti.min(v0, v1) > cv + ext_v
+        ):
             continue
         step = length / k
         eu = u0 - cu
@@ -721,7 +724,15 @@ def detect_all_serial(
 
 @ti.func
 def one_step_serial(
-    fx: ti.template(), b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), cells: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.template()
+    fx: ti.template(),
+    b: ti.template(),
+    bi: ti.template(),
+    cd: ti.template(),
+    cp: ti.template(),
+    cells: ti.template(),
+    par: ti.template(),
+    acc: ti.template(),
+    ipar: ti.template(),
 ):
     """Phases 1-7 of one step with serial loops (COS, SIN valid on entry)."""
     n = b.shape[0]
