@@ -21,7 +21,10 @@ from .physics import layout as L
 from .physics import step as S
 from .scene import Icebergs, Scene, disc_radius
 
-SERIAL_MAX_N = 10000  # on the CPU at or below this, one kernel call runs many serial steps (bench scaling)
+# On the CPU at or below this N one kernel call runs many serial steps; above it each phase
+# is a parallel kernel. Both give the same bits. On 2 cores the serial form was faster at
+# N = 10,000 (3.1 vs 3.9 ms/step) and level at 40,000 (benchmarks/modes.py).
+SERIAL_MAX_N = 20000
 
 
 @dataclass(frozen=True)
