@@ -243,6 +243,7 @@ def time_phases(model, steps: int) -> dict[str, float]:
     kernel); ``other`` = the step's wall time minus the phases found."""
     timer = _PhaseTimer(model)
     total = 0.0
+    model.prepare()
     _sync()
     with timer:
         for _ in range(steps):

@@ -168,6 +168,12 @@ class Model:
         ipar[L.CONTACTS] = int(acc["contacts"])
         self.ipar.from_numpy(ipar)
 
+    def prepare(self) -> None:
+        """Refresh what a step caches from the state (cos and sin of every tilt). ``advance``
+        and ``contact_pairs`` call it; call it before driving ``_step_parallel`` directly
+        after ``set_state``."""
+        S.orient_all(self.b)
+
     def advance(self, steps: int) -> None:
         """Advance ``steps`` time steps (no I/O; one small read of the overflow flag)."""
         if steps <= 0:
@@ -175,7 +181,7 @@ class Model:
         if self.mode == "serial":
             S.steps_serial(self.fx, steps, self.b, self.bi, self.cd, self.cp, self.cells, self.par, self.acc, self.ipar)
         else:
-            S.orient_all(self.b)  # the state may have been set from the host since the last call
+            self.prepare()  # the state may have been set from the host since the last call
             for _ in range(steps):
                 self._step_parallel()
         if self.fx.collisions and self.ipar[L.OVERFLOW]:
@@ -219,7 +225,7 @@ class Model:
         """
         if not self.contacts:
             return [], []
-        S.orient_all(self.b)
+        self.prepare()
         self._detect()
         bi = self.bi.to_numpy()
         cp = self.cp.to_numpy()
