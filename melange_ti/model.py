@@ -23,7 +23,7 @@ from .scene import Icebergs, Scene, disc_radius
 
 # On the CPU at or below this N one kernel call runs many serial steps; above it each phase
 # is a parallel kernel. Both give the same bits. On 2 cores the serial form was faster at
-# N = 10,000 (3.1 vs 3.9 ms/step) and level at 40,000 (benchmarks/modes.py).
+# N = 10,000, level or faster at 40,000 and slower at 100,000 (benchmarks/modes.py).
 SERIAL_MAX_N = 20000
 
 

@@ -3,7 +3,8 @@
 ``bodies`` (N, NB, real): one row per iceberg, hot state first.
 ``ints`` (N, NI, i32): per-body integers.
 ``cdata`` (N, slots, NC, real) and ``cpartner`` (N, slots, i32): contacts of body i with
-partners j > i, sorted by j.
+partners j > i, sorted by j. CGAP is the gap when the contact was found; the correction
+pass replaces it by the predicted end-of-step gap (nothing reads it after that step).
 ``cells`` (ncells + 1, 3, i32): counting-sort cell list.
 ``par`` (NP, real): run-time parameters.
 ``acc`` (NA, f64): cumulative scalar accumulators.

@@ -297,26 +297,11 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
         inv_stu = 1.0 / stu
     if stv > 1e-12 * (hwj + hhj):
         inv_stv = 1.0 / stv
-    # in i's frame: how far j's disc centres reach from j's centre along i's axes, plus the
-    # touching distance
-    ext_u = iuj * ti.abs(c) + ivj * ti.abs(s) + touch
-    ext_v = iuj * ti.abs(s) + ivj * ti.abs(c) + touch
     for fa in range(faces):
         lo_a, hi_a = 0, k - 1
         # i's discs on this face, in j's frame, are (au0, av0) + ia (dau, dav): keep those
         # inside j's box grown by ri + rch (the exact test is repeated per disc)
         u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
-        # the face's segment spans [u0, u1] x [v0, v1] in i's frame: skip the face when that
-        # box misses the box around j's disc centres grown by ``touch``
-        u1 = u0 + length * du
-        v1 = v0 + length * dv
-        if (
-            ti.max(u0, u1) < cu - ext_u
-            or ti.min(u0, u1) > cu + ext_u
-            or ti.max(v0, v1) < cv - ext_v
-            or ti.min(v0, v1) > cv + ext_v
-        ):
-            continue
         step = length / k
         eu = u0 - cu
         ev = v0 - cv
