@@ -60,8 +60,8 @@ class Model:
 
         self.b = ti.ndarray(self.real, shape=(n, L.NB))
         self.bi = ti.ndarray(ti.i32, shape=(n, L.NI))
-        self.cd = ti.ndarray(self.real, shape=(n if self.contacts else 1, slots, L.NC))
-        self.cp = ti.ndarray(ti.i32, shape=(n if self.contacts else 1, slots))
+        self.cd = ti.ndarray(self.real, shape=(slots, n if self.contacts else 1, L.NC))
+        self.cp = ti.ndarray(ti.i32, shape=(slots, n if self.contacts else 1))
         self.cells = ti.ndarray(ti.i32, shape=(ncells + 1, 3))
         self.par = ti.ndarray(self.real, shape=(L.NP,))
         self.acc = ti.ndarray(ti.f64, shape=(L.NA,))
@@ -82,6 +82,8 @@ class Model:
             rows[:, L.CONST_COLS[name]] = value
         for name, col in L.STATE_COLS.items():
             rows[:, col] = getattr(bergs, name)
+        m_real = mass.astype(self.np_real)
+        rows[:, L.INV_MASS] = self.np_real(1.0) / m_real  # as the device would round it
         self.b.from_numpy(rows.astype(self.np_real))
         self.bi.from_numpy(np.zeros((n, L.NI), dtype=np.int32))
         self.cells.from_numpy(np.zeros((ncells + 1, 3), dtype=np.int32))
@@ -231,6 +233,6 @@ class Model:
         cp = self.cp.to_numpy()
         pairs = []
         if self.fx.collisions:
-            pairs = [(i, int(cp[i, s])) for i in range(self.n) for s in range(bi[i, L.NCONTACT])]
+            pairs = [(i, int(cp[s, i])) for i in range(self.n) for s in range(bi[i, L.NCONTACT])]
         wall = [int(i) for i in np.flatnonzero(bi[:, L.WALL_ON])] if self.fx.wall else []
         return pairs, wall

@@ -1,9 +1,10 @@
 """Column layout of the model's arrays (Taichi ndarrays, shared by kernels and host code).
 
-``bodies`` (N, NB, real): one row per iceberg, hot state first.
+``bodies`` (N, NB, real): one row per iceberg, columns grouped by phase (below).
 ``ints`` (N, NI, i32): per-body integers.
-``cdata`` (N, slots, NC, real) and ``cpartner`` (N, slots, i32): contacts of body i with
-partners j > i, sorted by j. CGAP is the gap when the contact was found; the correction
+``cdata`` (slots, N, NC, real) and ``cpartner`` (slots, N, i32): contacts of body i with
+partners j > i, sorted by j, at ``[0, i]``, ``[1, i]``, ... (slot-major: most
+bodies use one or two slots, so a sweep over the bodies reads them as dense streams). CGAP is the gap when the contact was found; the correction
 pass replaces it by the predicted end-of-step gap (nothing reads it after that step).
 ``cells`` (ncells + 1, 3, i32): counting-sort cell list.
 ``par`` (NP, real): run-time parameters.
@@ -11,25 +12,16 @@ pass replaces it by the predicted end-of-step gap (nothing reads it after that s
 ``ipar`` (NQ, i64): run-time integer parameters and counters.
 """
 
-# bodies: state
-X, Z, TH, VX, VZ, OM = 0, 1, 2, 3, 4, 5
-# bodies: constants
-WIDTH, THICK, MASS, INERTIA, RADIUS, BOUND = 6, 7, 8, 9, 10, 11
-# bodies: per-step scratch and per-body accumulators
-REACH, COS, SIN, DRAG_WORK, SHIFT_X, SHIFT_Z, WALL_PZ, WALL_GAP, KINETIC, POTENTIAL, MOTION = (
-    12,
-    13,
-    14,
-    15,
-    16,
-    17,
-    18,
-    19,
-    20,
-    21,
-    22,
-)
-NB = 23
+# bodies: 24 columns, 192 bytes = three 64-byte cache lines per row in f64, grouped by the
+# phases that read them together (at large N the sweeps are bound by memory traffic):
+# line 0: what the impulse pass and the correction sweeps touch (INV_MASS = 1 / MASS, rounded
+# once in the model's precision: the same bits as dividing on the device)
+X, Z, VX, VZ, OM, INV_MASS, SHIFT_X, SHIFT_Z = 0, 1, 2, 3, 4, 5, 6, 7
+# line 1: what detection reads besides x and z
+COS, SIN, WIDTH, THICK, RADIUS, BOUND, REACH, MOTION = 8, 9, 10, 11, 12, 13, 14, 15
+# line 2: the tilt, the rest of the constants and the per-body accumulators
+TH, MASS, INERTIA, DRAG_WORK, WALL_PZ, WALL_GAP, KINETIC, POTENTIAL = 16, 17, 18, 19, 20, 21, 22, 23
+NB = 24
 STATE_COLS = {"x": X, "z": Z, "theta": TH, "vx": VX, "vz": VZ, "omega": OM}
 CONST_COLS = {"width": WIDTH, "thickness": THICK, "mass": MASS, "inertia": INERTIA, "radius": RADIUS, "bound": BOUND}
 

@@ -64,6 +64,7 @@ from .layout import (
     DT,
     FILL,
     INERTIA,
+    INV_MASS,
     KINETIC,
     MASS,
     MAX_CORRECT,
@@ -219,17 +220,17 @@ def insert_contact(bi: ti.template(), cd: ti.template(), cp: ti.template(), ipar
         ipar[OVERFLOW] = 1
     else:
         pos = cnt
-        while pos > 0 and cp[i, pos - 1] > j:
-            cp[i, pos] = cp[i, pos - 1]
+        while pos > 0 and cp[pos - 1, i] > j:
+            cp[pos, i] = cp[pos - 1, i]
             for c in ti.static(range(5)):
-                cd[i, pos, c] = cd[i, pos - 1, c]
+                cd[pos, i, c] = cd[pos - 1, i, c]
             pos -= 1
-        cp[i, pos] = j
-        cd[i, pos, CPX] = px
-        cd[i, pos, CPZ] = pz
-        cd[i, pos, CNX] = nx
-        cd[i, pos, CNZ] = nz
-        cd[i, pos, CGAP] = gap
+        cp[pos, i] = j
+        cd[pos, i, CPX] = px
+        cd[pos, i, CPZ] = pz
+        cd[pos, i, CNX] = nx
+        cd[pos, i, CNZ] = nz
+        cd[pos, i, CGAP] = gap
         bi[i, NCONTACT] = cnt + 1
 
 
@@ -486,11 +487,11 @@ def resolve(b: ti.template(), par: ti.template(), acc: ti.template(), ipar: ti.t
         e = par[RESTITUTION]
         n = ti.Vector([nx, nz])
         a1 = cross2(ti.Vector([rx1, rz1]), n)
-        kk = 1.0 / b[i, MASS] + a1 * a1 / b[i, INERTIA]
+        kk = b[i, INV_MASS] + a1 * a1 / b[i, INERTIA]
         a2 = 0.0
         if j >= 0:
             a2 = cross2(ti.Vector([rx2, rz2]), n)
-            kk += 1.0 / b[j, MASS] + a2 * a2 / b[j, INERTIA]
+            kk += b[j, INV_MASS] + a2 * a2 / b[j, INERTIA]
         jn = -(1.0 + e) * vn / kk
         b[i, VX] += jn * nx / b[i, MASS]
         b[i, VZ] += jn * nz / b[i, MASS]
@@ -540,11 +541,11 @@ def push(
     the discs. A body moved for the first time in this pass records its potential energy
     (POTENTIAL column) and is marked with the sweep (PUSHED); the pass books the energy
     change per body."""
-    inv1 = 1.0 / b[i, MASS]
+    inv1 = b[i, INV_MASS]
     inv2 = 0.0
     g = 0.0
     if j >= 0:
-        inv2 = 1.0 / b[j, MASS]
+        inv2 = b[j, INV_MASS]
         g = g_end + (b[i, SHIFT_X] - b[j, SHIFT_X]) * nx + (b[i, SHIFT_Z] - b[j, SHIFT_Z]) * nz
     else:
         g = wall_gap(b, par, ipar, i)
@@ -592,7 +593,7 @@ def impulse_pass(
             if ti.static(fx.collisions):
                 for s in range(bi[i, NCONTACT]):
                     resolve(
-                        b, par, acc, ipar, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP]
+                        b, par, acc, ipar, i, cp[s, i], cd[s, i, CPX], cd[s, i, CPZ], cd[s, i, CNX], cd[s, i, CNZ], cd[s, i, CGAP]
                     )
 
 
@@ -622,8 +623,8 @@ def deep_contacts(
             count += deep_approach(b, par, i, -1, par[WALL_X], b[i, WALL_PZ], 1.0, 0.0, b[i, WALL_GAP])
     if ti.static(fx.collisions):
         for s in range(bi[i, NCONTACT]):
-            j = cp[i, s]
-            count += deep_approach(b, par, i, j, cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
+            j = cp[s, i]
+            count += deep_approach(b, par, i, j, cd[s, i, CPX], cd[s, i, CPZ], cd[s, i, CNX], cd[s, i, CNZ], cd[s, i, CGAP])
     return count
 
 
@@ -646,8 +647,8 @@ def correction_pass(
         if ti.static(fx.collisions):
             # each contact's end-of-step gap, once, before anything is pushed (stored in CGAP)
             for s in range(bi[i, NCONTACT]):
-                cd[i, s, CGAP] = predicted_gap(
-                    b, par, i, cp[i, s], cd[i, s, CPX], cd[i, s, CPZ], cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP]
+                cd[s, i, CGAP] = predicted_gap(
+                    b, par, i, cp[s, i], cd[s, i, CPX], cd[s, i, CPZ], cd[s, i, CNX], cd[s, i, CNZ], cd[s, i, CGAP]
                 )
     for sweep in range(MAX_CORRECT):
         pushed = 0
@@ -659,9 +660,9 @@ def correction_pass(
                     pushed += push(fx, b, bi, par, ipar, sweep, i, -1, 1.0, 0.0, 0.0)
             if ti.static(fx.collisions):
                 for s in range(bi[i, NCONTACT]):
-                    j = cp[i, s]
+                    j = cp[s, i]
                     if ti.max(bi[i, PUSHED], bi[j, PUSHED]) >= since:
-                        pushed += push(fx, b, bi, par, ipar, sweep, i, j, cd[i, s, CNX], cd[i, s, CNZ], cd[i, s, CGAP])
+                        pushed += push(fx, b, bi, par, ipar, sweep, i, j, cd[s, i, CNX], cd[s, i, CNZ], cd[s, i, CGAP])
         if pushed == 0:
             break
     # the corrections' change of potential energy, per moved body, in body order
