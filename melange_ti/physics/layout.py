@@ -3,9 +3,10 @@
 ``bodies`` (N, NB, real): one row per iceberg, columns grouped by phase (below).
 ``ints`` (N, NI, i32): per-body integers.
 ``cdata`` (slots, N, NC, real) and ``cpartner`` (slots, N, i32): contacts of body i with
-partners j > i, sorted by j, at ``[0, i]``, ``[1, i]``, ... (slot-major: most
-bodies use one or two slots, so a sweep over the bodies reads them as dense streams). CGAP is the gap when the contact was found; the correction
-pass replaces it by the predicted end-of-step gap (nothing reads it after that step).
+partners j > i, sorted by j, at ``[0, i]``, ``[1, i]``, ... (slot-major: most bodies use one
+or two slots, so a sweep over the bodies reads them as dense streams). CGAP is the gap when
+the contact was found; the correction pass replaces it by the predicted end-of-step gap
+(nothing reads it after that step).
 ``cells`` (ncells + 1, 3, i32): counting-sort cell list.
 ``par`` (NP, real): run-time parameters.
 ``acc`` (NA, f64): cumulative scalar accumulators.
