@@ -22,9 +22,10 @@ from .physics import step as S
 from .scene import Icebergs, Scene, disc_radius
 
 # On the CPU at or below this N one kernel call runs many serial steps; above it each phase
-# is a parallel kernel. Both give the same bits. On 2 cores the serial form was faster at
-# N = 10,000, level or faster at 40,000 and slower at 100,000 (benchmarks/modes.py).
-SERIAL_MAX_N = 20000
+# is a parallel kernel. Both give the same bits. On 2 cores (benchmarks/modes.py, three runs
+# at the current memory layout) the serial form was faster at N = 10,000 and 40,000, faster
+# or slower at 70,000 depending on the run, and level at 100,000.
+SERIAL_MAX_N = 50000
 
 
 @dataclass(frozen=True)
@@ -62,6 +63,14 @@ class Model:
         self.bi = ti.ndarray(ti.i32, shape=(n, L.NI))
         self.cd = ti.ndarray(self.real, shape=(slots, n if self.contacts else 1, L.NC))
         self.cp = ti.ndarray(ti.i32, shape=(slots, n if self.contacts else 1))
+        # candidate lists for the narrow phase (step.narrow): kept in the serial form, where
+        # they save a third of the step at N = 400; at N = 100,000 in the parallel form the
+        # extra memory traffic cost more than the search they save (benchmarks in README).
+        # Contacts are bit-for-bit the same with and without them.
+        self.lists = self.fx.collisions and mode == "serial"
+        lists = n if self.lists else 1
+        self.nl = ti.ndarray(ti.i32, shape=(lists, L.ENTRIES * (2 + L.PAIRS)))
+        self.nr = ti.ndarray(self.real, shape=(lists, L.ENTRIES, 5))
         self.cells = ti.ndarray(ti.i32, shape=(ncells + 1, 3))
         self.par = ti.ndarray(self.real, shape=(L.NP,))
         self.acc = ti.ndarray(ti.f64, shape=(L.NA,))
@@ -87,6 +96,7 @@ class Model:
         self.b.from_numpy(rows.astype(self.np_real))
         self.bi.from_numpy(np.zeros((n, L.NI), dtype=np.int32))
         self.cells.from_numpy(np.zeros((ncells + 1, 3), dtype=np.int32))
+        self.clear_candidate_lists()
 
         par = np.zeros(L.NP)
         par[[L.DT, L.RESTITUTION, L.DRAG_LIN, L.DRAG_ANG, L.WATER, L.WALL_X, L.BOUND_MAX]] = (
@@ -98,6 +108,7 @@ class Model:
             p.wall_x,
             float(bound.max()),
         )
+        par[L.EPS] = float(np.finfo(self.np_real).eps)
         self.par.from_numpy(par.astype(self.np_real))
         self.acc.from_numpy(np.zeros(L.NA))
         ipar = np.zeros(L.NQ, dtype=np.int64)
@@ -109,6 +120,7 @@ class Model:
             ncells,
             scene.contacts.discs,
         )
+        ipar[L.LISTS] = int(self.lists)
         self.ipar.from_numpy(ipar)
 
     # ------------------------------------------------------------------ host side
@@ -170,6 +182,16 @@ class Model:
         ipar[L.CONTACTS] = int(acc["contacts"])
         self.ipar.from_numpy(ipar)
 
+    def clear_candidate_lists(self) -> None:
+        """Forget the narrow phase's candidate lists (``step.narrow``): the next detection
+        searches every pair afresh. Contacts are bit-for-bit the same either way; only
+        speed differs."""
+        self.nl.from_numpy(np.full(self.nl.shape, -1, dtype=np.int32))
+        self.nr.from_numpy(np.zeros(self.nr.shape, dtype=self.np_real))
+        ints = self.bi.to_numpy()
+        ints[:, L.NEXT_ENTRY] = 0
+        self.bi.from_numpy(ints)
+
     def prepare(self) -> None:
         """Refresh what a step caches from the state (cos and sin of every tilt). ``advance``
         and ``contact_pairs`` call it; call it before driving ``_step_parallel`` directly
@@ -181,7 +203,9 @@ class Model:
         if steps <= 0:
             return
         if self.mode == "serial":
-            S.steps_serial(self.fx, steps, self.b, self.bi, self.cd, self.cp, self.cells, self.par, self.acc, self.ipar)
+            S.steps_serial(
+                self.fx, steps, self.b, self.bi, self.cd, self.cp, self.nl, self.nr, self.cells, self.par, self.acc, self.ipar
+            )
         else:
             self.prepare()  # the state may have been set from the host since the last call
             for _ in range(steps):
@@ -199,7 +223,7 @@ class Model:
             S.bin_count(self.b, self.bi, self.cells, self.par, self.ipar)
             S.bin_scan(self.cells, self.ipar)
             S.bin_fill(self.bi, self.cells)
-        S.detect_all(self.fx, self.b, self.bi, self.cd, self.cp, self.cells, self.par, self.ipar)
+        S.detect_all(self.fx, self.b, self.bi, self.cd, self.cp, self.nl, self.nr, self.cells, self.par, self.ipar)
 
     def _step_parallel(self) -> None:
         S.kick_all(self.fx, self.b, self.par)

@@ -17,7 +17,10 @@ Phases (semi-implicit Euler, velocities first):
                  pairs; all disc pairs of one body pair merge into one contact, stored in
                  per-body slots sorted by partner index (independent of the thread count).
                  A contact is kept if its gap may close within this step (speculative
-                 contacts: no tunnelling at any speed).
+                 contacts: no tunnelling at any speed). In the serial form each body keeps,
+                 per partner, the disc pairs within touching distance plus a skin, and
+                 visits only those while the pair has not moved by more than the skin
+                 allows (``narrow``): the same contacts, bit for bit, for less work.
 5. ``impulses``  sequential, fixed order: body i ascending, its wall contact first, then its
                  partners j > i ascending; repeated ``contact_passes`` times. Then, only in
                  violent cases: while some contact would still close by more than
@@ -62,18 +65,23 @@ from .layout import (
     DRAG_LIN,
     DRAG_WORK,
     DT,
+    ENTRIES,
+    EPS,
     FILL,
     INERTIA,
     INV_MASS,
     KINETIC,
+    LISTS,
     MASS,
     MAX_CORRECT,
     MAX_DETECT,
     MOTION,
     NCELLS,
     NCONTACT,
+    NEXT_ENTRY,
     OM,
     OVERFLOW,
+    PAIRS,
     PASSES,
     POTENTIAL,
     PUSHED,
@@ -84,6 +92,7 @@ from .layout import (
     SHIFT_X,
     SHIFT_Z,
     SIN,
+    SKIN,
     SLOTS,
     SORTED,
     SPEED_MAX,
@@ -250,17 +259,74 @@ def boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, gap):
 
 
 @ti.func
-def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.template(), ipar: ti.template(), i, j, rch, motion):
+def j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv):
+    """For a disc of i at (au, av) in j's frame and j's face ``fb``: its offset across the
+    face (``perp``) and along it from the face's first disc (``along``), and the face's disc
+    spacing and its inverse. Face fb's disc ``ib`` is ``along - ib * st`` away along it."""
+    perp = au - iuj
+    along = av + ivj
+    st = stv
+    inv_st = inv_stv
+    if fb == 1:
+        perp, along, st, inv_st = av - ivj, iuj - au, stu, inv_stu
+    elif fb == 2:
+        perp, along = au + iuj, ivj - av
+    elif fb == 3:
+        perp, along, st, inv_st = av + ivj, au + iuj, stu, inv_stu
+    return perp, along, st, inv_st
+
+
+@ti.func
+def pair_term(fb, perp, a, d2, au, av, ri, rj):
+    """Gap and weighted-sum term (1, contact point u, v, normal u, v; j's frame) of the disc
+    pair at offset (perp, a) from j's disc on face fb, ``d2 = perp^2 + a^2 > 0``."""
+    # offset from j's disc to i's disc, in j's frame
+    du_, dv_ = perp, a
+    if fb == 1:
+        du_, dv_ = -a, perp
+    elif fb == 2:
+        du_, dv_ = perp, -a
+    elif fb == 3:
+        du_, dv_ = a, perp
+    dist = ti.sqrt(d2)
+    g = dist - ri - rj
+    inv = 1.0 / dist
+    t = (rj + 0.5 * g) * inv
+    return g, ti.Vector([1.0, au - du_ + du_ * t, av - dv_ + dv_ * t, du_ * inv, dv_ * inv])
+
+
+@ti.func
+def narrow(
+    b: ti.template(),
+    bi: ti.template(),
+    cd: ti.template(),
+    cp: ti.template(),
+    nl: ti.template(),
+    nr: ti.template(),
+    par: ti.template(),
+    ipar: ti.template(),
+    i,
+    j,
+    rch,
+    motion,
+):
     """One contact for the pair (i, j) from its disc pairs.
 
     Disc pairs closer than ``motion`` (how far the pair can close at its current
     velocities) merge into one contact, weighted by ``motion - gap``. If none is that close
     but some are within ``rch`` (room for velocities an impulse may add), those merge,
     weighted by ``rch - gap``, into a standby contact, so a struck iceberg meets its
-    neighbour.
-    Only discs that can matter are visited: on each face of i, the discs within reach of
-    j's bounding circle; for each of those, on each face of j, the discs within reach of
-    it (an index range from its distance along the face). Sums are taken in j's body frame.
+    neighbour. Sums are taken in j's body frame, over the disc pairs within touching
+    distance in a fixed order (i's face, i's disc, j's face, j's disc).
+
+    Finding those pairs: on each face of i, the discs within reach of j's box; for each, on
+    each face of j, the discs within reach of it (an index range from its distance along the
+    face). That search also keeps, in i's candidate list for j (``nl``, ``nr``), every disc
+    pair within touching distance plus a skin, in the same order, with the pair's relative
+    pose. While neither body has moved relative to the other by more than the skin allows,
+    later steps visit only the kept pairs. They contain every pair within touching distance
+    and the order is the same, so a contact is bit-for-bit the same either way; the list
+    only saves the search.
     """
     k = ti.cast(ipar[K], ti.i32)
     ci, si, cj, sj = b[i, COS], b[i, SIN], b[j, COS], b[j, SIN]
@@ -272,19 +338,16 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
     cu = dx * ci + dz * si  # j's centre in i's frame
     cv = -dx * si + dz * ci
     touch = ri + rj + rch
-    faces = 4
-    if boxes_apart(cu, cv, ci * cj + si * sj, sj * ci - cj * si, hwi, hhi, hwj, hhj, rch):
-        faces = 0  # the rectangles (which contain the discs) cannot meet this step
+    # j's tilt relative to i, and i's centre in j's frame
+    c = ci * cj + si * sj
+    s = sj * ci - cj * si
+    tu = -cu * c - cv * s
+    tv = cu * s - cv * c
     # weighted sums of (1, contact point u, v, normal u, v): by motion - gap, and by
     # rch - gap for a standby contact
     near = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
     standby = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
     gap = 1e30
-    # j's tilt relative to i, and j's faces' disc lines (in j's frame), used per disc below
-    c = ci * cj + si * sj
-    s = sj * ci - cj * si
-    lim_u = hwj + ri + rch
-    lim_v = hhj + ri + rch
     touch2 = touch * touch
     # j's disc-centre rectangle and its disc spacing along the u- and v-faces (a face of
     # zero length holds k coincident discs: every index is then in range)
@@ -298,65 +361,126 @@ def narrow(b: ti.template(), bi: ti.template(), cd: ti.template(), cp: ti.templa
         inv_stu = 1.0 / stu
     if stv > 1e-12 * (hwj + hhj):
         inv_stv = 1.0 / stv
-    for fa in range(faces):
-        lo_a, hi_a = 0, k - 1
-        # i's discs on this face, in j's frame, are (au0, av0) + ia (dau, dav): keep those
-        # inside j's box grown by ri + rch (the exact test is repeated per disc)
-        u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
-        step = length / k
-        eu = u0 - cu
-        ev = v0 - cv
-        au0 = eu * c + ev * s
-        av0 = -eu * s + ev * c
-        dau = step * (du * c + dv * s)
-        dav = step * (-du * s + dv * c)
-        lo_a, hi_a = line_window(au0, dau, lim_u, lo_a, hi_a)
-        if lo_a <= hi_a:
-            lo_a, hi_a = line_window(av0, dav, lim_v, lo_a, hi_a)
-        for ia in range(lo_a, hi_a + 1):
-            au = au0 + ia * dau  # disc of i in j's frame
+    # i's list entry for j, if any, and whether it still holds every pair within touch:
+    # any disc of i has moved relative to j's discs by at most |dt| + |dR| bound_i since
+    # the list was made (|dR| <= |dc| + |ds| for the rotation), so a pair within touch now
+    # was within touch + that then; ``slack`` covers the round-off of both computations
+    # (64 epsilon of the coordinates' size: 1e-11 in f64 at |x| ~ 1000, 1e-2 in f32)
+    lists = ipar[LISTS] != 0
+    entry = -1
+    use = False
+    if lists:
+        for e in ti.static(range(ENTRIES)):
+            if nl[i, e] == j:
+                entry = e
+    if entry >= 0:
+        if nl[i, ENTRIES + entry] >= 0:
+            moved = ti.abs(tu - nr[i, entry, 0]) + ti.abs(tv - nr[i, entry, 1])
+            moved += (ti.abs(c - nr[i, entry, 2]) + ti.abs(s - nr[i, entry, 3])) * b[i, BOUND]
+            size = ti.abs(xi) + ti.abs(zi) + ti.abs(xj) + ti.abs(zj) + b[i, BOUND] + b[j, BOUND] + touch
+            use = touch + moved + 64.0 * par[EPS] * size <= nr[i, entry, 4]
+    if use:
+        fa_prev = -1
+        au0, av0, dau, dav = 0.0, 0.0, 0.0, 0.0
+        base = 2 * ENTRIES + entry * PAIRS
+        for q in range(nl[i, ENTRIES + entry]):
+            code = nl[i, base + q]
+            fa = code >> 14
+            ia = (code >> 8) & 63
+            fb = (code >> 6) & 3
+            ib = code & 63
+            if fa != fa_prev:
+                fa_prev = fa
+                u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
+                step = length / k
+                eu = u0 - cu
+                ev = v0 - cv
+                au0 = eu * c + ev * s
+                av0 = -eu * s + ev * c
+                dau = step * (du * c + dv * s)
+                dav = step * (-du * s + dv * c)
+            au = au0 + ia * dau
             av = av0 + ia * dav
-            if ti.abs(au) > lim_u or ti.abs(av) > lim_v:
-                continue
-            # j's faces are axis-aligned in its frame: face fb's disc centres are
-            # (perpendicular offset ``perp``, along-face offset ``along - ib * step``) away
-            for fb in ti.static(range(4)):
-                perp = au - iuj
-                along = av + ivj
-                st = stv
-                inv_st = inv_stv
-                if ti.static(fb == 1):
-                    perp, along, st, inv_st = av - ivj, iuj - au, stu, inv_stu
-                elif ti.static(fb == 2):
-                    perp, along = au + iuj, ivj - av
-                elif ti.static(fb == 3):
-                    perp, along, st, inv_st = av + ivj, au + iuj, stu, inv_stu
-                if ti.abs(perp) < touch:
-                    lo_b, hi_b = 0, k - 1
-                    if inv_st > 0:
-                        lo_b = ti.max(0, ti.cast(ti.ceil((along - touch) * inv_st), ti.i32))
-                        hi_b = ti.min(k - 1, ti.cast(ti.floor((along + touch) * inv_st), ti.i32))
-                    for ib in range(lo_b, hi_b + 1):
-                        a = along - ib * st
-                        d2 = perp * perp + a * a
-                        if d2 < touch2 and d2 > 0:
-                            # offset from j's disc to i's disc, in j's frame
-                            du_, dv_ = perp, a
-                            if ti.static(fb == 1):
-                                du_, dv_ = -a, perp
-                            elif ti.static(fb == 2):
-                                du_, dv_ = perp, -a
-                            elif ti.static(fb == 3):
-                                du_, dv_ = a, perp
-                            dist = ti.sqrt(d2)
-                            g = dist - ri - rj
-                            inv = 1.0 / dist
-                            t = (rj + 0.5 * g) * inv
-                            term = ti.Vector([1.0, au - du_ + du_ * t, av - dv_ + dv_ * t, du_ * inv, dv_ * inv])
-                            if g < motion:
-                                near += (motion - g) * term
-                            standby += (rch - g) * term
-                            gap = ti.min(gap, g)
+            perp, along, st, _inv = j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv)
+            a = along - ib * st
+            d2 = perp * perp + a * a
+            if d2 < touch2 and d2 > 0:
+                g, term = pair_term(fb, perp, a, d2, au, av, ri, rj)
+                if g < motion:
+                    near += (motion - g) * term
+                standby += (rch - g) * term
+                gap = ti.min(gap, g)
+    else:
+        # search, keeping the pairs within touch + skin in a (new or reused) list entry
+        skin = 0.0
+        count = -1  # -1: nothing kept
+        if lists:
+            skin = SKIN * ti.min(ri, rj)
+            if entry < 0:
+                entry = bi[i, NEXT_ENTRY]
+                bi[i, NEXT_ENTRY] = (entry + 1) % ENTRIES
+            if k <= 64:  # else the indices do not fit the list's codes: always search
+                count = 0
+        keep = touch + skin
+        keep2 = keep * keep
+        grow = rch + skin
+        faces = 4
+        if boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, grow):
+            faces = 0  # the rectangles (which contain the discs) cannot meet this step
+        lim_u = hwj + ri + grow
+        lim_v = hhj + ri + grow
+        for fa in range(faces):
+            lo_a, hi_a = 0, k - 1
+            # i's discs on this face, in j's frame, are (au0, av0) + ia (dau, dav): keep
+            # those inside j's box grown by ri + rch + skin (the exact test is per disc)
+            u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
+            step = length / k
+            eu = u0 - cu
+            ev = v0 - cv
+            au0 = eu * c + ev * s
+            av0 = -eu * s + ev * c
+            dau = step * (du * c + dv * s)
+            dav = step * (-du * s + dv * c)
+            lo_a, hi_a = line_window(au0, dau, lim_u, lo_a, hi_a)
+            if lo_a <= hi_a:
+                lo_a, hi_a = line_window(av0, dav, lim_v, lo_a, hi_a)
+            for ia in range(lo_a, hi_a + 1):
+                au = au0 + ia * dau  # disc of i in j's frame
+                av = av0 + ia * dav
+                if ti.abs(au) > lim_u or ti.abs(av) > lim_v:
+                    continue
+                # j's faces are axis-aligned in its frame (a dynamic loop: unrolled, the
+                # kernels took twice as long to compile, for ~10% of this loop's time)
+                for fb in range(4):
+                    perp, along, st, inv_st = j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv)
+                    if ti.abs(perp) < keep:
+                        lo_b, hi_b = 0, k - 1
+                        if inv_st > 0:
+                            lo_b = ti.max(0, ti.cast(ti.ceil((along - keep) * inv_st), ti.i32))
+                            hi_b = ti.min(k - 1, ti.cast(ti.floor((along + keep) * inv_st), ti.i32))
+                        for ib in range(lo_b, hi_b + 1):
+                            a = along - ib * st
+                            d2 = perp * perp + a * a
+                            if d2 < keep2 and count >= 0:
+                                if count < PAIRS:
+                                    nl[i, 2 * ENTRIES + entry * PAIRS + count] = (fa << 14) | (ia << 8) | (fb << 6) | ib
+                                    count += 1
+                                else:
+                                    count = -1  # too many pairs to keep: search next step
+                            if d2 < touch2 and d2 > 0:
+                                g, term = pair_term(fb, perp, a, d2, au, av, ri, rj)
+                                if g < motion:
+                                    near += (motion - g) * term
+                                standby += (rch - g) * term
+                                gap = ti.min(gap, g)
+        if lists:
+            nl[i, entry] = j
+            nl[i, ENTRIES + entry] = count
+            nr[i, entry, 0] = tu
+            nr[i, entry, 1] = tv
+            nr[i, entry, 2] = c
+            nr[i, entry, 3] = s
+            nr[i, entry, 4] = keep
     if gap < rch:
         sums = near
         if near[0] <= 0:
@@ -430,6 +554,8 @@ def detect(
     bi: ti.template(),
     cd: ti.template(),
     cp: ti.template(),
+    nl: ti.template(),
+    nr: ti.template(),
     cells: ti.template(),
     par: ti.template(),
     ipar: ti.template(),
@@ -453,7 +579,7 @@ def detect(
                     dz = zi - b[j, Z]
                     lim = b[i, BOUND] + b[j, BOUND] + rch
                     if dx * dx + dz * dz < lim * lim:
-                        narrow(b, bi, cd, cp, ipar, i, j, rch, b[i, MOTION] + b[j, MOTION])
+                        narrow(b, bi, cd, cp, nl, nr, par, ipar, i, j, rch, b[i, MOTION] + b[j, MOTION])
     if ti.static(fx.wall):
         detect_wall(b, bi, par, ipar, i)
 
@@ -678,6 +804,8 @@ def detect_all_serial(
     bi: ti.template(),
     cd: ti.template(),
     cp: ti.template(),
+    nl: ti.template(),
+    nr: ti.template(),
     cells: ti.template(),
     par: ti.template(),
     ipar: ti.template(),
@@ -705,7 +833,7 @@ def detect_all_serial(
             bi[cells[c, FILL], SORTED] = i
             cells[c, FILL] += 1
     for i in range(n):
-        detect(fx, b, bi, cd, cp, cells, par, ipar, i, size)
+        detect(fx, b, bi, cd, cp, nl, nr, cells, par, ipar, i, size)
 
 
 @ti.func
@@ -715,6 +843,8 @@ def one_step_serial(
     bi: ti.template(),
     cd: ti.template(),
     cp: ti.template(),
+    nl: ti.template(),
+    nr: ti.template(),
     cells: ti.template(),
     par: ti.template(),
     acc: ti.template(),
@@ -728,7 +858,7 @@ def one_step_serial(
         redetect = 1
         for _attempt in range(MAX_DETECT):
             if redetect:
-                detect_all_serial(fx, b, bi, cd, cp, cells, par, ipar)
+                detect_all_serial(fx, b, bi, cd, cp, nl, nr, cells, par, ipar)
             impulse_pass(fx, b, bi, cd, cp, par, acc, ipar)
             grown = 0
             for i in range(n):
@@ -748,7 +878,20 @@ def one_step_serial(
 
 # ---------------------------------------------------------------- kernels
 @ti.kernel
-def steps_serial(fx: ti.template(), steps: ti.i32, b: arr, bi: arr, cd: arr, cp: arr, cells: arr, par: arr, acc: arr, ipar: arr):
+def steps_serial(
+    fx: ti.template(),
+    steps: ti.i32,
+    b: arr,
+    bi: arr,
+    cd: arr,
+    cp: arr,
+    nl: arr,
+    nr: arr,
+    cells: arr,
+    par: arr,
+    acc: arr,
+    ipar: arr,
+):
     """``steps`` whole steps in one call, every loop serial (small N: no launch costs)."""
     ti.loop_config(serialize=True)
     for _ in range(1):
@@ -756,7 +899,7 @@ def steps_serial(fx: ti.template(), steps: ti.i32, b: arr, bi: arr, cd: arr, cp:
         for i in range(n):
             orient(b, i)  # the state may have been set from the host since the last call
         for _step in range(steps):
-            one_step_serial(fx, b, bi, cd, cp, cells, par, acc, ipar)
+            one_step_serial(fx, b, bi, cd, cp, nl, nr, cells, par, acc, ipar)
 
 
 @ti.kernel
@@ -811,10 +954,10 @@ def bin_fill(bi: arr, cells: arr):
 
 
 @ti.kernel
-def detect_all(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, cells: arr, par: arr, ipar: arr):
+def detect_all(fx: ti.template(), b: arr, bi: arr, cd: arr, cp: arr, nl: arr, nr: arr, cells: arr, par: arr, ipar: arr):
     size = cell_size(par)
     for i in range(b.shape[0]):
-        detect(fx, b, bi, cd, cp, cells, par, ipar, i, size)
+        detect(fx, b, bi, cd, cp, nl, nr, cells, par, ipar, i, size)
 
 
 @ti.kernel

@@ -558,3 +558,102 @@ def test_row_driven_into_wall(speed):
     s = initial(sc)
     s["vx"][:] = -speed
     run_hard(m, sc, s, 1000, 5)
+
+
+# ---------------------------------------------------------------- candidate lists
+def _contacts_now(m):
+    """Contacts the next step would use, with their raw data: pairs, wall bodies, and each
+    body's slots (partner, point, normal, gap) as bytes."""
+    pairs, wall = m.contact_pairs()
+    from melange_ti.physics import layout as L
+
+    nc = m.bi.to_numpy()[:, L.NCONTACT]
+    cd, cp = m.cd.to_numpy(), m.cp.to_numpy()
+    slots = [(cp[: nc[i], i].tobytes(), cd[: nc[i], i].tobytes()) for i in range(m.n)]
+    return pairs, wall, slots
+
+
+@st.composite
+def moved_layouts(draw):
+    which, state = draw(layouts(moving=True))
+    n = N_PROP
+    scale = draw(st.sampled_from([0.0, 1e-6, 1e-3, 0.02, 0.1, 0.5]))
+    d = np.array(draw(st.lists(coord, min_size=3 * n, max_size=3 * n))).reshape(3, n) * scale
+    moved = copy(state)
+    moved["x"] = moved["x"] + d[0]
+    moved["z"] = moved["z"] + d[1]
+    moved["theta"] = moved["theta"] + d[2]
+    return which, state, moved
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(moved_layouts())
+def test_candidate_lists_give_the_searched_contacts(detection_models, case):
+    """The narrow phase keeps, per body pair, the disc pairs found within touching distance
+    plus a skin, and later visits only those while the pair has not moved too far. After any
+    move (none, tiny, within the skin, far beyond it) the contacts must be bit-for-bit those
+    of a fresh search."""
+    which, before, after = case
+    m = detection_models[which][0]
+    m.set_state(before)
+    m.contact_pairs()  # lists made at `before`
+    m.set_state(after)
+    warm = _contacts_now(m)
+    m.clear_candidate_lists()
+    cold = _contacts_now(m)
+    assert warm[:2] == cold[:2]
+    assert warm[2] == cold[2], "contact data differ between the kept lists and a fresh search"
+
+
+ENTRIES = 4  # physics.layout.ENTRIES (checked in the test)
+
+
+def _packed_row(discs=28, n=20):
+    bergs = [{"x": 0.6 + k * 1.0, "z": -R * 1.4 + 0.7, "width": 1.0, "thickness": 1.4} for k in range(n)]
+    sc = make_scene(FULL, bergs, contacts={"discs": discs})
+    rng = np.random.default_rng(3)
+    s = initial(sc)
+    s["theta"] = rng.uniform(-0.01, 0.01, n)
+    return sc, s, rng
+
+
+@pytest.mark.parametrize("discs", [12, 28, 60])
+def test_candidate_lists_are_kept_and_exact(discs):
+    """A packed row, its lists made, then moved a little (well within the skin): the lists
+    are reused (their recorded poses do not change) and give the searched contacts exactly;
+    moved a lot, they are remade (poses change) and are exact again."""
+    from melange_ti.physics import layout as L
+
+    assert L.ENTRIES == ENTRIES
+    sc, s, rng = _packed_row(discs)
+    m = Model(sc)
+    m.set_state(s)
+    first = _contacts_now(m)
+    assert len(first[0]) >= 15  # the row touches along its length: not vacuous
+    poses = m.nr.to_numpy().copy()
+    used = m.nl.to_numpy()[:, :ENTRIES] >= 0
+
+    small = copy(s)
+    small["x"] = small["x"] + rng.uniform(-1e-4, 1e-4, s["x"].size)
+    small["theta"] = small["theta"] + rng.uniform(-1e-5, 1e-5, s["x"].size)
+    small["vx"] = rng.uniform(-0.01, 0.01, s["x"].size)
+    m.set_state(small)
+    warm = _contacts_now(m)
+    kept = np.all(m.nr.to_numpy() == poses, axis=2) & used
+    assert kept.sum() >= 15, "lists were not reused after a tiny move"
+    m.clear_candidate_lists()
+    assert warm == _contacts_now(m)
+
+    m.set_state(small)
+    _contacts_now(m)  # lists at `small`
+    poses = m.nr.to_numpy().copy()
+    used = m.nl.to_numpy()[:, :ENTRIES] >= 0
+    big = copy(small)
+    big["theta"] = big["theta"] + np.where(np.arange(big["x"].size) % 2 == 0, 0.05, -0.05)
+    big["x"] = big["x"] + np.arange(big["x"].size) * 0.02
+    m.set_state(big)
+    warm = _contacts_now(m)
+    remade = ~np.all(m.nr.to_numpy() == poses, axis=2) & used
+    assert remade.sum() >= 15, "lists were not remade after a large move"
+    m.clear_candidate_lists()
+    assert warm == _contacts_now(m)
