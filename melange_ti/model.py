@@ -27,6 +27,13 @@ from .scene import Icebergs, Scene, disc_radius
 # or slower at 70,000 depending on the run, and level at 100,000.
 SERIAL_MAX_N = 50000
 
+# The narrow phase's candidate lists (1 kB per iceberg) are kept at or below this N, in the
+# serial form. Measured on 2 cores, active state: they cut the step by ~20% at N = 400 and
+# 4000 (all in cache), but were level or slower at 40,000 (serial) and slower at 100,000
+# (parallel: narrow phase 13.1 -> 14.3 ms), where their memory traffic costs more than the
+# search they save.
+LISTS_MAX_N = 20000
+
 
 @dataclass(frozen=True)
 class Totals:
@@ -63,11 +70,9 @@ class Model:
         self.bi = ti.ndarray(ti.i32, shape=(n, L.NI))
         self.cd = ti.ndarray(self.real, shape=(slots, n if self.contacts else 1, L.NC))
         self.cp = ti.ndarray(ti.i32, shape=(slots, n if self.contacts else 1))
-        # candidate lists for the narrow phase (step.narrow): kept in the serial form, where
-        # they save a third of the step at N = 400; at N = 100,000 in the parallel form the
-        # extra memory traffic cost more than the search they save (benchmarks in README).
-        # Contacts are bit-for-bit the same with and without them.
-        self.lists = self.fx.collisions and mode == "serial"
+        # candidate lists for the narrow phase (step.narrow), used where they were measured
+        # to pay: see LISTS_MAX_N. Contacts are bit-for-bit the same with and without them.
+        self.lists = self.fx.collisions and mode == "serial" and n <= LISTS_MAX_N
         lists = n if self.lists else 1
         self.nl = ti.ndarray(ti.i32, shape=(lists, L.ENTRIES * (2 + L.PAIRS)))
         self.nr = ti.ndarray(self.real, shape=(lists, L.ENTRIES, 5))
