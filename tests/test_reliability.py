@@ -194,6 +194,14 @@ class Follower:
             self.f = None
 
 
+def _default_sigint():
+    """In the child: SIGINT back to its default, so Python turns it into KeyboardInterrupt.
+    A test session started as a background job of a non-interactive shell (e.g.
+    ``.ci/run &``) has SIGINT ignored, and children inherit that; the interrupted run would
+    then ignore the test's Ctrl-C and finish."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.fixture(scope="module")
 def interrupted(tmp_path_factory):
     """Reference, SIGKILLed and SIGINTed runs of the same scene (see module docstring)."""
@@ -202,7 +210,12 @@ def interrupted(tmp_path_factory):
     common = ["run", "scene.toml", "--threads", "1"]
     procs = {
         name: subprocess.Popen(
-            cli(*common, "--out", f"{name}.h5"), cwd=d, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+            cli(*common, "--out", f"{name}.h5"),
+            cwd=d,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            preexec_fn=_default_sigint,
         )
         for name in ("ref", "kill", "int")
     }
