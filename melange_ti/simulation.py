@@ -51,6 +51,45 @@ class RunSummary:
         ]
 
 
+class _DeferredInterrupt:
+    """Ctrl-C (SIGINT) during a run, turned into ``KeyboardInterrupt`` between two advances.
+
+    Python raises ``KeyboardInterrupt`` wherever the main thread happens to be, and where
+    that is a garbage-collection or weakref callback it is printed and dropped ("Exception
+    ignored in ...") and the run goes on. This handler only records the signal; the run
+    loop raises at its next check (at most one output interval later), where the file and
+    checkpoint are in a consistent state. Installed only in the main thread, and not where
+    SIGINT is ignored (e.g. under ``nohup``).
+    """
+
+    def __init__(self):
+        import signal
+        import threading
+
+        self.requested = False
+        self.installed = False
+        self.previous = None
+        if threading.current_thread() is threading.main_thread():
+            current = signal.getsignal(signal.SIGINT)
+            if current is not signal.SIG_IGN:
+                self.previous = signal.signal(signal.SIGINT, self._record)
+                self.installed = True
+
+    def _record(self, signum, frame) -> None:
+        self.requested = True
+
+    def check(self) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+
+    def restore(self) -> None:
+        if self.installed:
+            import signal
+
+            signal.signal(signal.SIGINT, self.previous if self.previous is not None else signal.SIG_DFL)
+            self.installed = False
+
+
 @dataclass
 class _Counters:
     """Cumulative totals at the previous diagnostic (rates are differences of these)."""
@@ -142,10 +181,12 @@ class Simulation:
         t0 = wallclock.perf_counter()
         step = start_step
         last = None
+        interrupt = _DeferredInterrupt()
         try:
             if not self.resume:
                 last = self._events(0, counters, first=True)
             while step < self.total:
+                interrupt.check()
                 nxt = min(
                     self._next(step, self.every_diag),
                     self._next(step, self.every_snap),
@@ -165,6 +206,7 @@ class Simulation:
                 self.ckpt.unlink(missing_ok=True)
             raise
         finally:
+            interrupt.restore()
             if bar is not None:
                 bar.close()
             writer.close(complete=step >= self.total)

@@ -141,7 +141,9 @@ def paper_like(count: int, duration: float, snap: float, diag: float, ckpt: floa
     )
 
 
-KILL_SCENE = dict(count=40, duration=100.0, snap=2.5, diag=0.5, ckpt=10.0)
+# 100,000 steps (~2 s): long enough for the reader to see the file grow over several
+# flushes before the kill (at 10,000 steps the faster engine got there within 2-3 polls)
+KILL_SCENE = dict(count=40, duration=1000.0, snap=25.0, diag=5.0, ckpt=100.0)
 N_SNAP = round(KILL_SCENE["duration"] / KILL_SCENE["snap"]) + 1
 
 
@@ -220,7 +222,7 @@ def interrupted(tmp_path_factory):
         for name in ("ref", "kill", "int")
     }
     follower = Follower(d / "kill.h5")
-    targets = {"kill": N_SNAP // 2, "int": (2 * N_SNAP) // 5}  # t = 50 and t = 40 of 100
+    targets = {"kill": N_SNAP // 2, "int": (2 * N_SNAP) // 5}  # t = 500 and t = 400 of 1000
     signals = {"kill": signal.SIGKILL, "int": signal.SIGINT}
     at_signal: dict[str, int] = {}
     deadline = time.monotonic() + 900

@@ -321,9 +321,10 @@ def narrow(
 
     Finding those pairs: on each face of i, the discs within reach of j's box; for each, on
     each face of j, the discs within reach of it (an index range from its distance along the
-    face). That search also keeps, in i's candidate list for j (``nl``, ``nr``), every disc
-    pair within touching distance plus a skin, in the same order, with the pair's relative
-    pose. While neither body has moved relative to the other by more than the skin allows,
+    face). Where lists are on (``ipar[LISTS]``: the serial form up to ``LISTS_MAX_N``
+    icebergs), that search also keeps, in i's candidate list for j (``nl``, ``nr``), every
+    disc pair within touching distance plus a skin, in the same order, with the pair's
+    relative pose. While neither body has moved relative to the other by more than the skin allows,
     later steps visit only the kept pairs. They contain every pair within touching distance
     and the order is the same, so a contact is bit-for-bit the same either way; the list
     only saves the search.
