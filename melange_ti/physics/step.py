@@ -259,6 +259,17 @@ def boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, gap):
 
 
 @ti.func
+def face_in_j(fa, k, hwi, hhi, ri, cu, cv, c, s):
+    """i's face ``fa`` in j's frame: its discs are at ``(au0, av0) + ia (dau, dav)``. j's
+    centre is at (cu, cv) in i's frame, and (c, s) is j's tilt relative to i."""
+    u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
+    step = length / k
+    eu = u0 - cu
+    ev = v0 - cv
+    return eu * c + ev * s, -eu * s + ev * c, step * (du * c + dv * s), step * (-du * s + dv * c)
+
+
+@ti.func
 def j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv):
     """For a disc of i at (au, av) in j's frame and j's face ``fb``: its offset across the
     face (``perp``) and along it from the face's first disc (``along``), and the face's disc
@@ -392,14 +403,7 @@ def narrow(
             ib = code & 63
             if fa != fa_prev:
                 fa_prev = fa
-                u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
-                step = length / k
-                eu = u0 - cu
-                ev = v0 - cv
-                au0 = eu * c + ev * s
-                av0 = -eu * s + ev * c
-                dau = step * (du * c + dv * s)
-                dav = step * (-du * s + dv * c)
+                au0, av0, dau, dav = face_in_j(fa, k, hwi, hhi, ri, cu, cv, c, s)
             au = au0 + ia * dau
             av = av0 + ia * dav
             perp, along, st, _inv = j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv)
@@ -434,14 +438,7 @@ def narrow(
             lo_a, hi_a = 0, k - 1
             # i's discs on this face, in j's frame, are (au0, av0) + ia (dau, dav): keep
             # those inside j's box grown by ri + rch + skin (the exact test is per disc)
-            u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
-            step = length / k
-            eu = u0 - cu
-            ev = v0 - cv
-            au0 = eu * c + ev * s
-            av0 = -eu * s + ev * c
-            dau = step * (du * c + dv * s)
-            dav = step * (-du * s + dv * c)
+            au0, av0, dau, dav = face_in_j(fa, k, hwi, hhi, ri, cu, cv, c, s)
             lo_a, hi_a = line_window(au0, dau, lim_u, lo_a, hi_a)
             if lo_a <= hi_a:
                 lo_a, hi_a = line_window(av0, dav, lim_v, lo_a, hi_a)
