@@ -22,9 +22,9 @@ from .physics import step as S
 from .scene import Icebergs, Scene, disc_radius
 
 # On the CPU at or below this N one kernel call runs many serial steps; above it each phase
-# is a parallel kernel. Both give the same bits. On 2 cores (benchmarks/modes.py, three runs
-# at the current memory layout) the serial form was faster at N = 10,000 and 40,000, faster
-# or slower at 70,000 depending on the run, and level at 100,000.
+# is a parallel kernel. Both give the same bits. On 2 cores (benchmarks/modes.py, five runs,
+# README) the serial form was clearly faster at N = 10,000, the two were a wash from 40,000
+# to 70,000, and the parallel form was level or faster at 100,000.
 SERIAL_MAX_N = 50000
 
 # The narrow phase's candidate lists (1 kB per iceberg) are kept at or below this N, in the
