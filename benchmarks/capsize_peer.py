@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from melange_ti import scene as scn
-from melange_ti.bench_peers import PymunkMelange
+from melange_ti.bench.peers import PymunkMelange
 
 
 def capsized(theta: np.ndarray) -> float:

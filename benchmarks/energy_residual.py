@@ -34,7 +34,7 @@ def main() -> None:
         s = m.sample()
         tot = m.totals()
         released = e0 - (s["kinetic"].sum() + s["potential"].sum())
-        booked = s["drag_work"].sum() + tot.collision_dissipated + tot.correction_work
+        booked = s["drag_dissipated"].sum() + tot.collision_dissipated + tot.correction_work
         rows.append(
             {
                 "dt": dt,

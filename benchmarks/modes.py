@@ -23,19 +23,19 @@ def main() -> None:
     runtime.init("cpu")
     import taichi as ti
 
-    from melange_ti import bench
+    from melange_ti.bench.common import STATE, evolved_block, paper_scene, tile, time_advance
     from melange_ti.model import SERIAL_MAX_N, Model
 
-    block, _ = bench.evolved_block(400, 200.0)
+    block, _ = evolved_block(400, 200.0)
     rows = []
     for n in a.sizes:
-        tiled = bench.tile(block, n)
+        tiled = tile(block, n)
         row = {"n": n, "threads": ti.lang.impl.current_cfg().cpu_max_num_threads}
         for mode in ("serial", "parallel"):
-            m = Model(bench.paper_scene(n), mode=mode)
-            m.set_state({k: tiled[k] for k in bench.STATE})
+            m = Model(paper_scene(n), mode=mode)
+            m.set_state({k: tiled[k] for k in STATE})
             m.advance(3)  # compiles on first use
-            row[f"{mode}_ms_per_step"] = 1e3 * bench._time_advance(m, 10, 3)
+            row[f"{mode}_ms_per_step"] = 1e3 * time_advance(m, 10, 3)
         rows.append(row)
         print(f"N = {n:,}: serial {row['serial_ms_per_step']:.2f} ms/step, parallel {row['parallel_ms_per_step']:.2f} ms/step")
     a.out.parent.mkdir(parents=True, exist_ok=True)

@@ -1,8 +1,44 @@
-"""Diagnostics as pure functions of state arrays (numpy; SPEC sections 1 and 5)."""
+"""Diagnostics: the scalar time series of a run (:data:`FIELDS`), and pure numpy functions
+of the state (SPEC sections 1 and 5)."""
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
+
+from .physics.columns import Column
+from .physics.schema import ACCUMULATORS, BODIES, E
+
+
+class Field(NamedTuple):
+    """One diagnostic: name, dtype, units and meaning."""
+
+    name: str
+    dtype: str
+    units: str
+    long_name: str
+
+
+def _ledger_fields() -> tuple[Field, ...]:
+    """Every energy ledger of the schema (per-body ledgers summed over the icebergs, then the
+    run-wide ones): a ledger column added by an effect appears here with no other edit."""
+    cols: list[Column] = [*BODIES.with_role("ledger"), *ACCUMULATORS.with_role("ledger")]
+    return tuple(Field(c.output, "f8", c.units, c.doc) for c in cols if c.output and c.units == E)
+
+
+FIELDS: tuple[Field, ...] = (
+    Field("capsized_fraction", "f8", "1", "fraction of icebergs with capsize angle phi >= pi/4"),
+    Field("leading_edge", "f8", "w", "max_i x_i(t) - max_i x_i(0)"),
+    Field("kinetic_energy", "f8", E, "kinetic energy, summed over icebergs"),
+    Field("potential_energy", "f8", E, "potential energy (gravity and buoyancy), summed over icebergs"),
+    *_ledger_fields(),
+    Field("contacts", "i8", "1", "impulses applied since the previous diagnostic"),
+    Field("wall_force", "f8", "rho_w g w^2", "mean horizontal force on the wall since the previous diagnostic"),
+    Field("impulse_rate", "f8", "rho_w g w^2", "sum of impulses per unit time since the previous diagnostic"),
+)
+NAMES: tuple[str, ...] = tuple(f.name for f in FIELDS)
+ENERGY_LEDGERS: tuple[str, ...] = tuple(f.name for f in _ledger_fields())
 
 
 def capsize_angle(theta: np.ndarray) -> np.ndarray:

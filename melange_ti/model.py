@@ -1,30 +1,55 @@
 """The Model: the icebergs' arrays (Taichi ndarrays) and the compiled step for one effect set.
 
-``Model`` owns one row per iceberg (``physics.layout``: state ``x, z, theta, vx, vz, omega``,
-constants ``width, thickness, mass, inertia``, disc ``radius``, bounding radius ``bound``,
-and scratch), the contact slots, the cell list and the scalar accumulators. The effect set
-is fixed when the model is built; without contacts no contact array is allocated and no
-contact kernel runs. The step's phases are in :mod:`melange_ti.physics.step`.
+A model owns the arrays the schema describes (:mod:`melange_ti.physics.schema`: one row per
+iceberg, contact slots, candidate lists, the cell list, parameters, counters and
+accumulators). The effect set is fixed when the model is built; without contacts no contact
+array is allocated and no contact kernel runs. The step is the stage list of
+:mod:`melange_ti.physics.stages`.
 
-For small N one kernel call runs many steps with every loop serial (no launch cost, FACTS);
-for large N each phase is its own parallel kernel. Both modes give the same bits.
+For small N on the CPU one kernel call runs many steps with every loop serial (no launch
+cost); for large N each stage is launched as parallel kernels. Both give the same bits.
 """
 
+from __future__ import annotations
+
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 import taichi as ti
 
 from .errors import ContactOverflow
-from .physics import layout as L
-from .physics import step as S
-from .scene import Icebergs, Scene, disc_radius
+from .geometry import disc_radius
+from .physics import narrow, stages
+from .physics.schema import (
+    ACC_LEDGERS,
+    ACCUMULATORS,
+    BODIES,
+    BODY_INTS,
+    BODY_LEDGERS,
+    CELLS,
+    CONFIG,
+    CONSTANTS,
+    CONTACTS,
+    COUNTERS,
+    LIST_POSES,
+    PARAMS,
+    SCRATCH,
+    STATE,
+    Arrays,
+    Body,
+    BodyInt,
+    Config,
+    Counter,
+    Param,
+)
+from .scene import Icebergs, Scene
 
-# On the CPU at or below this N one kernel call runs many serial steps; above it each phase
-# is a parallel kernel. Both give the same bits. On 2 cores (benchmarks/modes.py, five runs,
-# README) the serial form was clearly faster at N = 10,000, the two were a wash from 40,000
-# to 70,000, and the parallel form was level or faster at 100,000.
+# On the CPU at or below this N one kernel call runs many serial steps; above it each stage
+# is launched as parallel kernels. Both give the same bits. On 2 cores (benchmarks/modes.py,
+# five runs) the serial form was clearly faster at N = 10,000, the two were a wash from
+# 40,000 to 70,000, and the parallel form was level or faster at 100,000.
 SERIAL_MAX_N = 50000
 
 # The narrow phase's candidate lists (1 kB per iceberg) are kept at or below this N, in the
@@ -34,16 +59,23 @@ SERIAL_MAX_N = 50000
 # search they save.
 LISTS_MAX_N = 20000
 
+_DTYPES = {"f64": ti.f64, "i32": ti.i32, "i64": ti.i64}
+
 
 @dataclass(frozen=True)
 class Totals:
-    """Cumulative scalar counters since t = 0 (SPEC section 5 diagnostics)."""
+    """Cumulative scalar counters since t = 0 (the run-wide ledgers and the impulse count)."""
 
     collision_dissipated: float
     correction_work: float
     wall_impulse: float
     impulse_sum: float
     contacts: int
+
+
+def _scene_value(scene: Scene, key: str) -> float:
+    section, name = key.split(".")
+    return float(getattr(getattr(scene, section), name))
 
 
 class Model:
@@ -62,190 +94,210 @@ class Model:
         if mode not in ("serial", "parallel"):
             raise ValueError(f"mode must be 'auto', 'serial' or 'parallel', not {mode!r}")
         self.mode = mode
-        self.contacts = self.fx.collisions or self.fx.wall
+        self.contacts = self.fx.contacts
         slots = scene.contacts.max_partners if self.fx.collisions else 1
         ncells = 1 << max(2, math.ceil(math.log2(max(n, 4)))) if self.fx.collisions else 4
-
-        self.b = ti.ndarray(self.real, shape=(n, L.NB))
-        self.bi = ti.ndarray(ti.i32, shape=(n, L.NI))
-        self.cd = ti.ndarray(self.real, shape=(slots, n if self.contacts else 1, L.NC))
-        self.cp = ti.ndarray(ti.i32, shape=(slots, n if self.contacts else 1))
-        # candidate lists for the narrow phase (step.narrow), used where they were measured
-        # to pay: see LISTS_MAX_N. Contacts are bit-for-bit the same with and without them.
+        # candidate lists for the narrow phase, used where they were measured to pay (see
+        # LISTS_MAX_N). Contacts are bit-for-bit the same with and without them.
         self.lists = self.fx.collisions and mode == "serial" and n <= LISTS_MAX_N
-        lists = n if self.lists else 1
-        self.nl = ti.ndarray(ti.i32, shape=(lists, L.ENTRIES * (2 + L.PAIRS)))
-        self.nr = ti.ndarray(self.real, shape=(lists, L.ENTRIES, 5))
-        self.cells = ti.ndarray(ti.i32, shape=(ncells + 1, 3))
-        self.par = ti.ndarray(self.real, shape=(L.NP,))
-        self.acc = ti.ndarray(ti.f64, shape=(L.NA,))
-        self.ipar = ti.ndarray(ti.i64, shape=(L.NQ,))
+        nc = n if self.contacts else 1
+        nlists = n if self.lists else 1
 
+        def alloc(table, *lead):
+            dtype = self.real if table.dtype == "real" else _DTYPES[table.dtype]
+            return ti.ndarray(dtype, shape=(*lead, table.size))
+
+        self.arrays = Arrays(
+            b=alloc(BODIES, n),
+            bi=alloc(BODY_INTS, n),
+            cd=alloc(CONTACTS, slots, nc),
+            cp=ti.ndarray(ti.i32, shape=(slots, nc)),
+            nl=ti.ndarray(ti.i32, shape=(nlists, narrow.LIST_WIDTH)),
+            nr=alloc(LIST_POSES, nlists, narrow.ENTRIES),
+            cells=alloc(CELLS, ncells + 1),
+            par=alloc(PARAMS),
+            scr=alloc(SCRATCH),
+            cfg=alloc(CONFIG),
+            cnt=alloc(COUNTERS),
+            acc=alloc(ACCUMULATORS),
+        )
+        self._out = ti.ndarray(self.real, shape=(n, len(stages.SAMPLE_NAMES)))
+        self.profile_totals: dict[str, float] = {}
+
+        a = self.arrays
         p = scene.physics
-        rows = np.zeros((n, L.NB), dtype=np.float64)
+        rows = np.zeros((n, BODIES.size), dtype=np.float64)
         mass = p.density_ratio * bergs.width * bergs.thickness
         bound = 0.5 * np.hypot(bergs.width, bergs.thickness)
-        for name, value in (
-            ("width", bergs.width),
-            ("thickness", bergs.thickness),
-            ("mass", mass),
-            ("inertia", mass * (bergs.width**2 + bergs.thickness**2) / 12.0),
-            ("radius", disc_radius(bergs.width, bergs.thickness, scene.contacts.discs, scene.contacts.disc_spacing)),
-            ("bound", bound),
-        ):
-            rows[:, L.CONST_COLS[name]] = value
-        for name, col in L.STATE_COLS.items():
+        rows[:, Body.WIDTH] = bergs.width
+        rows[:, Body.THICK] = bergs.thickness
+        rows[:, Body.MASS] = mass
+        rows[:, Body.INERTIA] = mass * (bergs.width**2 + bergs.thickness**2) / 12.0
+        rows[:, Body.RADIUS] = disc_radius(bergs.width, bergs.thickness, scene.contacts.discs, scene.contacts.disc_spacing)
+        rows[:, Body.BOUND] = bound
+        for name, col in BODIES.outputs("state").items():
             rows[:, col] = getattr(bergs, name)
         m_real = mass.astype(self.np_real)
-        rows[:, L.INV_MASS] = self.np_real(1.0) / m_real  # as the device would round it
-        self.b.from_numpy(rows.astype(self.np_real))
-        self.bi.from_numpy(np.zeros((n, L.NI), dtype=np.int32))
-        self.cells.from_numpy(np.zeros((ncells + 1, 3), dtype=np.int32))
+        rows[:, Body.INV_MASS] = self.np_real(1.0) / m_real  # as the device would round it
+        a.b.from_numpy(rows.astype(self.np_real))
+        a.bi.from_numpy(np.zeros(a.bi.shape, dtype=np.int32))
+        a.cells.from_numpy(np.zeros(a.cells.shape, dtype=np.int32))
         self.clear_candidate_lists()
 
-        par = np.zeros(L.NP)
-        par[[L.DT, L.RESTITUTION, L.DRAG_LIN, L.DRAG_ANG, L.WATER, L.WALL_X, L.BOUND_MAX]] = (
-            scene.time.dt,
-            p.restitution,
-            p.drag,
-            p.angular_drag,
-            p.water_level,
-            p.wall_x,
-            float(bound.max()),
-        )
-        par[L.EPS] = float(np.finfo(self.np_real).eps)
-        self.par.from_numpy(par.astype(self.np_real))
-        self.acc.from_numpy(np.zeros(L.NA))
-        ipar = np.zeros(L.NQ, dtype=np.int64)
-        ipar[[L.N, L.K, L.SLOTS, L.PASSES, L.NCELLS, L.DISCS]] = (
-            n,
-            scene.contacts.discs // 4,
-            slots,
-            scene.contacts.contact_passes,
-            ncells,
-            scene.contacts.discs,
-        )
-        ipar[L.LISTS] = int(self.lists)
-        self.ipar.from_numpy(ipar)
+        # parameters: each slot from the scene key the schema names, plus two derived ones
+        par = np.zeros(PARAMS.size)
+        for k, col in enumerate(PARAMS.columns):
+            if col.source is not None:
+                par[k] = _scene_value(scene, col.source)
+        par[Param.BOUND_MAX] = float(bound.max())
+        par[Param.EPS] = float(np.finfo(self.np_real).eps)
+        a.par.from_numpy(par.astype(self.np_real))
+        a.scr.from_numpy(np.zeros(a.scr.shape, dtype=self.np_real))
+        a.acc.from_numpy(np.zeros(ACCUMULATORS.size))
+        a.cnt.from_numpy(np.zeros(COUNTERS.size, dtype=np.int64))
+        cfg = np.zeros(CONFIG.size, dtype=np.int64)
+        cfg[Config.N] = n
+        cfg[Config.K] = scene.contacts.discs // 4
+        cfg[Config.SLOTS] = slots
+        cfg[Config.PASSES] = scene.contacts.contact_passes
+        cfg[Config.NCELLS] = ncells
+        cfg[Config.DISCS] = scene.contacts.discs
+        cfg[Config.LISTS] = int(self.lists)
+        a.cfg.from_numpy(cfg)
 
     # ------------------------------------------------------------------ host side
     def _rows(self) -> np.ndarray:
-        return self.b.to_numpy()
+        return self.arrays.b.to_numpy()
 
     def constants(self) -> dict[str, np.ndarray]:
         """Per-iceberg constants ``width, thickness, mass, inertia``, arrays of shape (N,)."""
         rows = self._rows()
-        return {k: rows[:, L.CONST_COLS[k]].copy() for k in ("width", "thickness", "mass", "inertia")}
+        return {k: rows[:, BODIES.outputs("constant")[k]].copy() for k in CONSTANTS}
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
         """Load ``x, z, theta, vx, vz, omega`` (arrays of shape (N,))."""
         rows = self._rows()
-        for name, col in L.STATE_COLS.items():
+        for name, col in BODIES.outputs("state").items():
             rows[:, col] = state[name]
-        self.b.from_numpy(rows)
+        self.arrays.b.from_numpy(rows)
 
     def state(self) -> dict[str, np.ndarray]:
         """Current state, arrays of shape (N,)."""
         rows = self._rows()
-        return {k: rows[:, c].copy() for k, c in L.STATE_COLS.items()}
+        return {k: rows[:, c].copy() for k, c in BODIES.outputs("state").items()}
 
     def sample(self) -> dict[str, np.ndarray]:
-        """State plus per-body ``kinetic``, ``potential`` energy and ``drag_work``, one transfer."""
-        S.energies(self.fx, self.b, self.par)
-        rows = self._rows()
-        out = {k: rows[:, c].copy() for k, c in L.STATE_COLS.items()}
-        out["kinetic"] = rows[:, L.KINETIC].copy()
-        out["potential"] = rows[:, L.POTENTIAL].copy()
-        out["drag_work"] = rows[:, L.DRAG_WORK].copy()
-        return out
+        """State, the per-body ledgers (e.g. ``drag_dissipated``) and per-body ``kinetic``
+        and ``potential`` energy, in one transfer (:data:`stages.SAMPLE_NAMES`)."""
+        stages.sample_all(self.fx, self.arrays.b, self.arrays.par, self._out)
+        out = self._out.to_numpy()
+        return {name: out[:, k].copy() for k, name in enumerate(stages.SAMPLE_NAMES)}
 
     def totals(self) -> Totals:
-        acc = self.acc.to_numpy()
+        acc = self.arrays.acc.to_numpy()
         return Totals(
-            collision_dissipated=float(acc[L.ACC_COLLISION]),
-            correction_work=float(acc[L.ACC_CORRECTION]),
-            wall_impulse=float(acc[L.ACC_WALL_IMPULSE]),
-            impulse_sum=float(acc[L.ACC_IMPULSE]),
-            contacts=int(self.ipar.to_numpy()[L.CONTACTS]),
+            **{name: float(acc[k]) for name, k in ACC_LEDGERS.items()},
+            contacts=int(self.arrays.cnt.to_numpy()[Counter.CONTACTS]),
         )
 
     def accumulators(self) -> dict[str, np.ndarray]:
-        """The cumulative counters besides the state (for checkpoints): per-body drag work,
-        the scalar energy and impulse sums, and the impulse count."""
-        return {
-            "drag_work": self._rows()[:, L.DRAG_WORK].copy(),
-            "acc": self.acc.to_numpy(),
-            "contacts": np.array(self.ipar.to_numpy()[L.CONTACTS]),
-        }
+        """Everything cumulative besides the state (for checkpoints): the per-body ledgers
+        by name, the run-wide accumulators (``acc``) and the counters (``counters``)."""
+        rows = self._rows()
+        out = {name: rows[:, col].copy() for name, col in BODY_LEDGERS.items()}
+        out["acc"] = self.arrays.acc.to_numpy()
+        out["counters"] = self.arrays.cnt.to_numpy()
+        return out
 
     def set_accumulators(self, acc: dict[str, np.ndarray]) -> None:
         rows = self._rows()
-        rows[:, L.DRAG_WORK] = acc["drag_work"]
-        self.b.from_numpy(rows)
-        self.acc.from_numpy(np.asarray(acc["acc"], dtype=np.float64))
-        ipar = self.ipar.to_numpy()
-        ipar[L.CONTACTS] = int(acc["contacts"])
-        self.ipar.from_numpy(ipar)
+        for name, col in BODY_LEDGERS.items():
+            rows[:, col] = acc[name]
+        self.arrays.b.from_numpy(rows)
+        self.arrays.acc.from_numpy(np.asarray(acc["acc"], dtype=np.float64))
+        self.arrays.cnt.from_numpy(np.asarray(acc["counters"], dtype=np.int64))
 
     def clear_candidate_lists(self) -> None:
-        """Forget the narrow phase's candidate lists (``step.narrow``): the next detection
-        searches every pair afresh. Contacts are bit-for-bit the same either way; only
-        speed differs."""
-        self.nl.from_numpy(np.full(self.nl.shape, -1, dtype=np.int32))
-        self.nr.from_numpy(np.zeros(self.nr.shape, dtype=self.np_real))
-        ints = self.bi.to_numpy()
-        ints[:, L.NEXT_ENTRY] = 0
-        self.bi.from_numpy(ints)
+        """Forget the narrow phase's candidate lists: the next detection searches every pair
+        afresh. Contacts are bit-for-bit the same either way; only speed differs."""
+        a = self.arrays
+        a.nl.from_numpy(np.full(a.nl.shape, -1, dtype=np.int32))
+        a.nr.from_numpy(np.zeros(a.nr.shape, dtype=self.np_real))
+        ints = a.bi.to_numpy()
+        ints[:, BodyInt.NEXT_ENTRY] = 0
+        a.bi.from_numpy(ints)
 
     def prepare(self) -> None:
-        """Refresh what a step caches from the state (cos and sin of every tilt). ``advance``
-        and ``contact_pairs`` call it; call it before driving ``_step_parallel`` directly
-        after ``set_state``."""
-        S.orient_all(self.b)
+        """Refresh what a step caches from the state (cos and sin of every tilt)."""
+        stages.orient_all(self.arrays.b)
 
+    # ------------------------------------------------------------------ stepping
     def advance(self, steps: int) -> None:
         """Advance ``steps`` time steps (no I/O; one small read of the overflow flag)."""
         if steps <= 0:
             return
         if self.mode == "serial":
-            S.steps_serial(
-                self.fx, steps, self.b, self.bi, self.cd, self.cp, self.nl, self.nr, self.cells, self.par, self.acc, self.ipar
-            )
+            stages.steps_serial(self.fx, steps, *self.arrays)
         else:
             self.prepare()  # the state may have been set from the host since the last call
             for _ in range(steps):
-                self._step_parallel()
-        if self.fx.collisions and self.ipar[L.OVERFLOW]:
+                self._step_parallel(None)
+        self._check_overflow()
+
+    def profile(self, steps: int) -> dict[str, float]:
+        """Advance ``steps`` steps in the parallel form, stage by stage with a sync after
+        each, and return wall seconds per step for each stage (:data:`stages.STAGE_NAMES`)
+        plus ``other`` (the rest of the step). Totals accumulate in ``profile_totals``."""
+        times = dict.fromkeys(stages.STAGE_NAMES, 0.0)
+        total = 0.0
+        self.prepare()
+        ti.sync()
+        for _ in range(steps):
+            t0 = time.perf_counter()
+            self._step_parallel(times)
+            ti.sync()
+            total += time.perf_counter() - t0
+        self._check_overflow()
+        times["other"] = max(0.0, total - sum(times.values()))
+        for k, v in times.items():
+            self.profile_totals[k] = self.profile_totals.get(k, 0.0) + v
+        return {k: v / max(steps, 1) for k, v in times.items()}
+
+    def _run(self, stage: stages.Stage, times: dict | None) -> None:
+        t0 = time.perf_counter() if times is not None else 0.0
+        for part in stage.parallel:
+            if part.needs(self.fx):
+                stages.run_part(self.fx, part, *self.arrays)
+        if times is not None:
+            ti.sync()
+            times[stage.name] += time.perf_counter() - t0
+
+    def _step_parallel(self, times: dict | None) -> None:
+        """One step of :data:`stages.STEP`, each stage launched as its parallel parts."""
+        for part in stages.STEP:
+            if not part.needs(self.fx):
+                continue
+            if part.kind == "stage":
+                self._run(part, times)
+                continue
+            redetect = True
+            for _ in range(part.limit):
+                if redetect:
+                    for st in part.detect:
+                        self._run(st, times)
+                for st in part.solve:
+                    self._run(st, times)
+                again = int(self.arrays.cnt[Counter.AGAIN])  # the one device read per round
+                redetect = again == 2
+                if again == 0:
+                    break
+
+    def _check_overflow(self) -> None:
+        if self.fx.collisions and self.arrays.cnt[Counter.OVERFLOW]:
             raise ContactOverflow(
                 f"contacts.max_partners = {self.scene.contacts.max_partners}: an iceberg had more contact partners "
                 "than slots; raise contacts.max_partners"
             )
-
-    def _detect(self) -> None:
-        S.speed_all(self.b, self.par)
-        S.reach_all(self.b, self.par)
-        if self.fx.collisions:
-            S.bin_count(self.b, self.bi, self.cells, self.par, self.ipar)
-            S.bin_scan(self.cells, self.ipar)
-            S.bin_fill(self.bi, self.cells)
-        S.detect_all(self.fx, self.b, self.bi, self.cd, self.cp, self.nl, self.nr, self.cells, self.par, self.ipar)
-
-    def _step_parallel(self) -> None:
-        S.kick_all(self.fx, self.b, self.par)
-        if self.contacts:
-            redetect = True
-            for _ in range(L.MAX_DETECT):
-                if redetect:
-                    self._detect()
-                S.impulses(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc, self.ipar)
-                S.check_reach(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.ipar)
-                again = int(self.ipar[L.AGAIN])  # the one device read per step
-                redetect = again == 2
-                if again == 0:
-                    break
-        S.drift_all(self.b, self.par)
-        if self.contacts:
-            S.correct(self.fx, self.b, self.bi, self.cd, self.cp, self.par, self.acc, self.ipar)
 
     def contact_pairs(self) -> tuple[list[tuple[int, int]], list[int]]:
         """Contacts the next step would consider, without changing the state.
@@ -257,11 +309,15 @@ class Model:
         if not self.contacts:
             return [], []
         self.prepare()
-        self._detect()
-        bi = self.bi.to_numpy()
-        cp = self.cp.to_numpy()
+        for st in (stages.BROAD, stages.NARROW):
+            self._run(st, None)
+        bi = self.arrays.bi.to_numpy()
+        cp = self.arrays.cp.to_numpy()
         pairs = []
         if self.fx.collisions:
-            pairs = [(i, int(cp[s, i])) for i in range(self.n) for s in range(bi[i, L.NCONTACT])]
-        wall = [int(i) for i in np.flatnonzero(bi[:, L.WALL_ON])] if self.fx.wall else []
+            pairs = [(i, int(cp[s, i])) for i in range(self.n) for s in range(bi[i, BodyInt.NCONTACT])]
+        wall = [int(i) for i in np.flatnonzero(bi[:, BodyInt.WALL_ON])] if self.fx.wall else []
         return pairs, wall
+
+
+__all__ = ["Model", "Totals", "ContactOverflow", "SERIAL_MAX_N", "LISTS_MAX_N", "STATE"]

@@ -18,40 +18,36 @@ from typing import Any
 import numpy as np
 import tomllib
 
-EFFECTS = ("gravity", "buoyancy", "drag", "collisions", "wall")
+from .physics.effects import NAMES as EFFECTS
+from .physics.effects import REGISTRY, Effects, Key
 
 
 class SceneError(ValueError):
     """A scene that cannot be run; the message is one line naming key and value."""
 
 
-@dataclass(frozen=True)
-class Effects:
-    """Which physical terms are compiled into the model (SPEC section 2)."""
+# [physics] keys of the model itself; each effect adds its own (physics.effects).
+BASE_PHYSICS_KEYS = (
+    Key("density_ratio", 0.8946, "1", "rho_ice / rho_water", lambda v: 0.0 < v < 1.0, "must be in (0, 1)"),
+    Key(
+        "restitution",
+        0.5,
+        "1",
+        "Newton coefficient of restitution on the normal relative velocity (iceberg and wall contacts)",
+        lambda v: 0.0 <= v <= 1.0,
+        "must be in [0, 1]",
+    ),
+    Key("water_level", 0.0, "w", "z of the flat sea surface"),
+)
+PHYSICS_KEYS: tuple[Key, ...] = (*BASE_PHYSICS_KEYS, *(k for e in REGISTRY for k in e.keys))
 
-    gravity: bool = False
-    buoyancy: bool = False
-    drag: bool = False
-    collisions: bool = False
-    wall: bool = False
-
-    @property
-    def contacts(self) -> bool:
-        """True when any contact (iceberg-iceberg or wall) is simulated."""
-        return self.collisions or self.wall
-
-    def names(self) -> list[str]:
-        return [n for n in EFFECTS if getattr(self, n)]
-
-
-@dataclass(frozen=True)
-class Physics:
-    density_ratio: float = 0.8946  # rho_ice / rho_water
-    restitution: float = 0.5  # Newton coefficient on the normal relative velocity
-    drag: float = 0.01  # linear drag rate on (vx, vz), 1/time
-    angular_drag: float = 0.01  # linear drag rate on omega, 1/time
-    water_level: float = 0.0  # z of the flat sea surface, widths
-    wall_x: float = 0.0  # x of the rigid wall, widths
+Physics = dataclasses.make_dataclass(
+    "Physics",
+    [(k.name, type(k.default), field(default=k.default)) for k in PHYSICS_KEYS],
+    frozen=True,
+    namespace={"__doc__": "The [physics] table: the model's keys and those of every registered effect."},
+)
+Physics.__module__ = __name__
 
 
 @dataclass(frozen=True)
@@ -154,10 +150,7 @@ SECTIONS: dict[str, type] = {
 
 # Each checked key: (predicate on the value, the rule in words).
 _RULES: dict[str, tuple[Any, str]] = {
-    "physics.density_ratio": (lambda v: 0.0 < v < 1.0, "must be in (0, 1)"),
-    "physics.restitution": (lambda v: 0.0 <= v <= 1.0, "must be in [0, 1]"),
-    "physics.drag": (lambda v: v >= 0.0, "must be >= 0"),
-    "physics.angular_drag": (lambda v: v >= 0.0, "must be >= 0"),
+    **{f"physics.{k.name}": (k.rule, k.accepts) for k in PHYSICS_KEYS if k.rule is not None},
     "contacts.discs": (lambda v: v >= 8 and v % 4 == 0, "must be a multiple of 4 and at least 8"),
     "contacts.contact_passes": (lambda v: v >= 1, "must be >= 1"),
     "contacts.max_partners": (lambda v: 1 <= v <= 1024, "must be in [1, 1024]"),
@@ -317,20 +310,6 @@ def _generate_shelf(shelf: Shelf, physics: Physics, seed: int) -> Icebergs:
     z = equilibrium_z(thickness, physics.density_ratio, physics.water_level)
     zeros = np.zeros(n)
     return Icebergs(x=x, z=z, theta=theta, vx=zeros, vz=zeros.copy(), omega=zeros.copy(), width=width, thickness=thickness)
-
-
-def disc_radius(width: np.ndarray | float, thickness: np.ndarray | float, discs: int, spacing: float = 2.0) -> Any:
-    """Radius of the collision discs of rectangles ``width`` x ``thickness``.
-
-    ``k = discs/4`` discs per face have their centres on the rectangle inset by the radius
-    ``r`` (so the union is tangent to the true faces); on the longest face ``L`` they are
-    ``(L - 2r)/k`` apart. Setting that spacing to ``spacing * r`` gives
-    ``r = L / (k spacing + 2)``. ``spacing = 2`` (the default) is the paper's no-hole limit
-    ``l/(n_d/4 + 1) = 2 r_d``; smaller values overlap the discs more (smoother faces,
-    rounder corners). The radius may not exceed half the shortest face.
-    """
-    longest = np.maximum(width, thickness)
-    return longest / ((discs // 4) * spacing + 2.0)
 
 
 def _rect_corners(b: Icebergs) -> np.ndarray:

@@ -1,8 +1,8 @@
-"""The Simulation: run loop, output schedules, guards and checkpoints; no physics here.
+"""The Simulation: run loop, scheduled outputs, guards and checkpoints; no physics here.
 
-Schedules are whole numbers of steps (SPEC requires every interval to be a multiple of dt),
-so output times are exactly ``step * dt``. Between two output events the model advances in
-one call with no host transfer; at an event one packed transfer gives state and energies.
+Like Oceananigans' ``Simulation``: the model advances in one call (no host transfer) to the
+earliest next event of its outputs' schedules; at an event one packed transfer gives state,
+ledgers and energies to every output that is due.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from .errors import NumericalError, RunError
 from .io import checkpoint
 from .io.hdf5 import OutputError, RunWriter, read_run
 from .model import Model
+from .physics.schema import ACC_LEDGERS, BODY_LEDGERS, STATE_NAMES
 from .scene import Scene
 
 
@@ -90,6 +91,23 @@ class _DeferredInterrupt:
             self.installed = False
 
 
+@dataclass(frozen=True)
+class IterationInterval:
+    """A schedule that fires every ``steps`` steps (Oceananigans' ``IterationInterval``).
+
+    Output intervals are whole numbers of steps (``round(interval / dt)``), so output times
+    are exactly ``step * dt``."""
+
+    steps: int
+
+    def __call__(self, step: int) -> bool:
+        return step % self.steps == 0
+
+    def next(self, step: int) -> int:
+        """The first step after ``step`` at which the schedule fires."""
+        return (step // self.steps + 1) * self.steps
+
+
 @dataclass
 class _Counters:
     """Cumulative totals at the previous diagnostic (rates are differences of these)."""
@@ -99,13 +117,131 @@ class _Counters:
     wall_impulse: float = 0.0
     impulse_sum: float = 0.0
 
+    def save(self) -> dict:
+        return {"counters": np.array([self.t, self.wall_impulse, self.impulse_sum]), "counter_contacts": self.contacts}
+
+    @classmethod
+    def load(cls, ck: dict) -> _Counters:
+        t, wall, imp = (float(v) for v in ck["counters"])
+        return cls(t=t, contacts=int(ck["counter_contacts"]), wall_impulse=wall, impulse_sum=imp)
+
+
+class Diagnostics:
+    """The scalar time series (:data:`melange_ti.diagnostics.FIELDS`), also at the last step."""
+
+    name = "diagnostics"
+    at_end = True
+
+    def __init__(self, schedule: IterationInterval):
+        self.schedule = schedule
+        self.counters = _Counters()
+        self.last: dict | None = None
+        self.last_step = -1
+
+    def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
+        tot = sim.model.totals()
+        c = self.counters
+        span = t - c.t
+        row = {
+            "time": t,
+            "capsized_fraction": diag.capsized_fraction(s["theta"]),
+            "leading_edge": diag.leading_edge(s["x"], sim.x0_max),
+            "kinetic_energy": float(np.sum(s["kinetic"])),
+            "potential_energy": float(np.sum(s["potential"])),
+            **{name: float(np.sum(s[name])) for name in BODY_LEDGERS},
+            **{name: getattr(tot, name) for name in ACC_LEDGERS if name in diag.NAMES},
+            "contacts": tot.contacts - c.contacts,
+            "wall_force": (tot.wall_impulse - c.wall_impulse) / span if span > 0 else 0.0,
+            "impulse_rate": (tot.impulse_sum - c.impulse_sum) / span if span > 0 else 0.0,
+        }
+        c.t, c.contacts, c.wall_impulse, c.impulse_sum = t, tot.contacts, tot.wall_impulse, tot.impulse_sum
+        self.last, self.last_step = row, step
+        sim.writer.diagnostic(row)
+
+
+class Guard:
+    """Stops a run whose state turned non-finite or whose energy ran away, keeping the file
+    (a snapshot of the bad state is written first). Runs at every output event, after the
+    diagnostics."""
+
+    name = "guard"
+    at_end = True
+
+    def __init__(self, diagnostics: Diagnostics):
+        self.diagnostics = diagnostics
+        self.schedule = None
+
+    def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
+        bad = None
+        for name in STATE_NAMES:
+            nonfinite = np.flatnonzero(~np.isfinite(s[name]))
+            if nonfinite.size:
+                bad = f"iceberg {int(nonfinite[0])} has non-finite {name}"
+                break
+        row = self.diagnostics.last if self.diagnostics.last_step == step else None
+        if bad is None and row is not None:
+            energy = row["kinetic_energy"] + row["potential_energy"]
+            rise = energy - sim.e0
+            if not math.isfinite(energy) or rise > sim.total_mass:
+                worst = int(np.argmax(s["kinetic"]))
+                bad = f"energy ran away (rose by {rise:.3g} > total mass {sim.total_mass:.3g}; fastest iceberg {worst})"
+        if bad is not None:
+            sim.writer.snapshot(t, s)
+            sim.writer.flush()
+            raise NumericalError(f"step {step} (t = {t:g}): {bad}; output kept in {sim.out}")
+
+
+class Snapshots:
+    """The full state of every iceberg, also at the last step."""
+
+    name = "snapshots"
+    at_end = True
+
+    def __init__(self, schedule: IterationInterval):
+        self.schedule = schedule
+
+    def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
+        sim.writer.snapshot(t, s)
+
+
+class Checkpoints:
+    """Everything the next step depends on (:mod:`melange_ti.io.checkpoint`): the state and
+    every ledger and counter the schema names, so a resumed run is bit-identical. Not at
+    the last step (a finished run needs none)."""
+
+    name = "checkpoints"
+    at_end = False
+
+    def __init__(self, schedule: IterationInterval, diagnostics: Diagnostics):
+        self.schedule = schedule
+        self.diagnostics = diagnostics
+
+    def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
+        sim.writer.flush()
+        data = {
+            "scene_toml": sim.scene.to_toml(),
+            "step": step,
+            **{f"state_{k}": v for k, v in sim.model.state().items()},
+            **{f"acc_{k}": v for k, v in sim.model.accumulators().items()},
+            **self.diagnostics.counters.save(),
+            "x0_max": sim.x0_max,
+            "e0": sim.e0,
+        }
+        try:
+            checkpoint.save(sim.ckpt, data)
+        except OSError as exc:
+            raise OutputError(f"{sim.ckpt}: checkpoint write failed ({os.strerror(exc.errno) if exc.errno else exc})") from None
+
 
 class Simulation:
     """Run ``scene`` into the HDF5 file ``out``.
 
-    ``resume`` continues an interrupted run from its checkpoint so that the final file is
-    bit-identical to an uninterrupted run. ``progress`` is a tqdm-like factory or ``None``
-    (a bar on a terminal, silent otherwise).
+    The simulation holds a list of outputs (:attr:`outputs`: diagnostics, the guard,
+    snapshots, checkpoints), each with its own schedule; the model advances in one call to
+    the earliest next event, where one packed transfer (:meth:`Model.sample`) feeds every
+    output that is due, in list order. ``resume`` continues an interrupted run from its
+    checkpoint so that the final file is bit-identical to an uninterrupted run.
+    ``progress``: a bar on a terminal (``None``: when stderr is one).
     """
 
     def __init__(
@@ -130,9 +266,18 @@ class Simulation:
         self.on_event = on_event
         dt = scene.time.dt
         self.total = scene.time.steps
-        self.every_diag = round(scene.output.diagnostic_interval / dt)
-        self.every_snap = round(scene.output.snapshot_interval / dt)
-        self.every_ckpt = round(scene.output.checkpoint_interval / dt)
+
+        def every(interval: float) -> IterationInterval:
+            return IterationInterval(max(1, round(interval / dt)))
+
+        diagnostics = Diagnostics(every(scene.output.diagnostic_interval))
+        self.outputs = [
+            diagnostics,
+            Guard(diagnostics),
+            Snapshots(every(scene.output.snapshot_interval)),
+            Checkpoints(every(scene.output.checkpoint_interval), diagnostics),
+        ]
+        self.diagnostics = diagnostics
         self._check_paths()
 
     def _check_paths(self) -> None:
@@ -155,10 +300,9 @@ class Simulation:
         scene = self.scene
         dtype = np.float32 if scene.precision == "f32" else np.float64
         self.model = model = Model(scene, mode=self.mode)
-        counters = _Counters()
         start_step = 0
         if self.resume:
-            writer, start_step, counters, self.x0_max, self.e0 = self._reopen(model, dtype)
+            writer, start_step = self._reopen(model, dtype)
         else:
             attrs = {
                 "scene_toml": scene.to_toml(),
@@ -180,24 +324,18 @@ class Simulation:
             bar = tqdm(total=self.total, initial=start_step, unit="step", unit_scale=True, dynamic_ncols=True, leave=False)
         t0 = wallclock.perf_counter()
         step = start_step
-        last = None
         interrupt = _DeferredInterrupt()
         try:
             if not self.resume:
-                last = self._events(0, counters, first=True)
+                self._events(0, first=True)
             while step < self.total:
                 interrupt.check()
-                nxt = min(
-                    self._next(step, self.every_diag),
-                    self._next(step, self.every_snap),
-                    self._next(step, self.every_ckpt),
-                    self.total,
-                )
+                nxt = min(min(o.schedule.next(step) for o in self.outputs if o.schedule is not None), self.total)
                 model.advance(nxt - step)
                 if bar is not None:
                     bar.update(nxt - step)
                 step = nxt
-                last = self._events(step, counters) or last
+                self._events(step)
         except OutputError:
             writer.close()
             if not self.resume and writer.snapshots_written == 0:
@@ -215,90 +353,26 @@ class Simulation:
             self.ckpt.unlink()
         return self._summary(step - start_step, wall)
 
-    @staticmethod
-    def _next(step: int, every: int) -> int:
-        return (step // every + 1) * every
-
-    def _events(self, step: int, c: _Counters, first: bool = False) -> dict | None:
+    def _due(self, step: int) -> list:
+        """The outputs due at ``step``, in list order; those without a schedule (the guard)
+        whenever any other is due."""
         final = step == self.total
-        want_diag = step % self.every_diag == 0 or final
-        want_snap = step % self.every_snap == 0 or final
-        want_ckpt = step % self.every_ckpt == 0 and not final
-        if not (want_diag or want_snap or want_ckpt):
-            return None
+        due = [o for o in self.outputs if o.schedule is not None and (o.at_end if final else o.schedule(step))]
+        return [o for o in self.outputs if o in due or (due and o.schedule is None)]
+
+    def _events(self, step: int, first: bool = False) -> None:
+        due = self._due(step)
+        if not due:
+            return
         t = step * self.scene.time.dt
         s = self.model.sample()
         if first:
             self.x0_max = float(np.max(s["x"]))
             self.e0 = float(np.sum(s["kinetic"]) + np.sum(s["potential"]))
-        row = None
-        if want_diag:
-            row = self._diag_row(t, s, c)
-            self.writer.diagnostic(row)
-        self._guard(step, t, s, row)
-        if want_snap:
-            self.writer.snapshot(t, s)
-        if want_ckpt:
-            self.writer.flush()
-            self._save_checkpoint(step, c)
+        for output in due:
+            output.write(self, step, t, s)
         if self.on_event is not None:
             self.on_event(step)
-        return row
-
-    def _diag_row(self, t: float, s: dict, c: _Counters) -> dict:
-        tot = self.model.totals()
-        span = t - c.t
-        row = {
-            "time": t,
-            "capsized_fraction": diag.capsized_fraction(s["theta"]),
-            "leading_edge": diag.leading_edge(s["x"], self.x0_max),
-            "kinetic_energy": float(np.sum(s["kinetic"])),
-            "potential_energy": float(np.sum(s["potential"])),
-            "drag_dissipated": float(np.sum(s["drag_work"])),
-            "collision_dissipated": tot.collision_dissipated,
-            "correction_work": tot.correction_work,
-            "contacts": tot.contacts - c.contacts,
-            "wall_force": (tot.wall_impulse - c.wall_impulse) / span if span > 0 else 0.0,
-            "impulse_rate": (tot.impulse_sum - c.impulse_sum) / span if span > 0 else 0.0,
-        }
-        c.t, c.contacts, c.wall_impulse, c.impulse_sum = t, tot.contacts, tot.wall_impulse, tot.impulse_sum
-        self._last_row = row
-        return row
-
-    def _guard(self, step: int, t: float, s: dict, row: dict | None) -> None:
-        bad = None
-        for name in ("x", "z", "theta", "vx", "vz", "omega"):
-            nonfinite = np.flatnonzero(~np.isfinite(s[name]))
-            if nonfinite.size:
-                bad = f"iceberg {int(nonfinite[0])} has non-finite {name}"
-                break
-        if bad is None and row is not None:
-            energy = row["kinetic_energy"] + row["potential_energy"]
-            rise = energy - self.e0
-            if not math.isfinite(energy) or rise > self.total_mass:
-                worst = int(np.argmax(s["kinetic"]))
-                bad = f"energy ran away (rose by {rise:.3g} > total mass {self.total_mass:.3g}; fastest iceberg {worst})"
-        if bad is not None:
-            self.writer.snapshot(t, s)
-            self.writer.flush()
-            raise NumericalError(f"step {step} (t = {t:g}): {bad}; output kept in {self.out}")
-
-    # ------------------------------------------------------------------ checkpoints
-    def _save_checkpoint(self, step: int, c: _Counters) -> None:
-        data = {
-            "scene_toml": self.scene.to_toml(),
-            "step": step,
-            **{f"state_{k}": v for k, v in self.model.state().items()},
-            **{f"acc_{k}": v for k, v in self.model.accumulators().items()},
-            "counters": np.array([c.t, c.wall_impulse, c.impulse_sum]),
-            "counter_contacts": c.contacts,
-            "x0_max": self.x0_max,
-            "e0": self.e0,
-        }
-        try:
-            checkpoint.save(self.ckpt, data)
-        except OSError as exc:
-            raise OutputError(f"{self.ckpt}: checkpoint write failed ({os.strerror(exc.errno) if exc.errno else exc})") from None
 
     def _reopen(self, model: Model, dtype):
         if not self.ckpt.exists():
@@ -316,16 +390,16 @@ class Simulation:
         step = int(ck["step"])
         model.set_state({k[6:]: ck[k] for k in ck if k.startswith("state_")})
         model.set_accumulators({k[4:]: ck[k] for k in ck if k.startswith("acc_")})
-        t_prev, wall, imp = (float(v) for v in ck["counters"])
-        counters = _Counters(t=t_prev, contacts=int(ck["counter_contacts"]), wall_impulse=wall, impulse_sum=imp)
+        self.diagnostics.counters = _Counters.load(ck)
+        self.x0_max, self.e0 = float(ck["x0_max"]), float(ck["e0"])
         writer = RunWriter(self.out, dtype=dtype, mode="r+", resume_time=step * self.scene.time.dt)
-        return writer, step, counters, float(ck["x0_max"]), float(ck["e0"])
+        return writer, step
 
     def _summary(self, steps: int, wall: float) -> RunSummary:
-        row = getattr(self, "_last_row", None) or {}
+        row = self.diagnostics.last or {}
         energy = row.get("kinetic_energy", 0.0) + row.get("potential_energy", 0.0)
         released = self.e0 - energy
-        dissipated = row.get("drag_dissipated", 0.0) + row.get("collision_dissipated", 0.0) + row.get("correction_work", 0.0)
+        dissipated = sum(row.get(name, 0.0) for name in diag.ENERGY_LEDGERS)
         return RunSummary(
             path=self.out,
             steps=steps,

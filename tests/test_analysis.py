@@ -247,9 +247,8 @@ def test_disc_layout_matches_the_model():
     """The numpy disc layout used for drawing is the Taichi one (contacts.disc_local)."""
     import taichi as ti
 
-    from melange_ti.analysis.render import disc_local
+    from melange_ti.geometry import disc_local, disc_radius
     from melange_ti.physics.contacts import disc_local as ti_disc_local
-    from melange_ti.scene import disc_radius
 
     discs, w, h = 28, 1.0, 1.4
     r = float(disc_radius(w, h, discs))

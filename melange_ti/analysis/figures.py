@@ -421,7 +421,9 @@ def fig_energy_budget(groups: Sequence[Group], units: Units):
     for i, g in enumerate(groups):
         ax = axes[i // ncol, i % ncol]
         grid, terms = energy_terms(g)
-        for name, (label, color, ls, lw) in ENERGY_STYLE.items():
+        for name in stats.ENERGY_TERMS:
+            # a ledger added later (an effect's) is drawn with a default style
+            label, color, ls, lw = ENERGY_STYLE.get(name, (f"{name} dissipated", None, "-", 1.2))
             if name == "released":
                 _band(ax, terms[name], color, label, ls=ls)
             else:

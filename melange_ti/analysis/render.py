@@ -21,8 +21,9 @@ from matplotlib.collections import EllipseCollection, PolyCollection  # noqa: E4
 from matplotlib.colors import Normalize  # noqa: E402
 
 from .. import diagnostics as diag  # noqa: E402
+from ..geometry import disc_local  # noqa: E402
 from ..io.hdf5 import OutputError, read_run, stored_scene  # noqa: E402
-from ..scene import Scene, SceneError, disc_radius  # noqa: E402
+from ..scene import Scene, SceneError  # noqa: E402
 
 G_SI = 9.81  # m s^-2
 CMAP = "plasma"
@@ -51,26 +52,6 @@ def rect_corners(x, z, theta, width, thickness) -> np.ndarray:
     out[:, :, 0] = x[:, None] + u * c[:, None] - v * s[:, None]
     out[:, :, 1] = z[:, None] + u * s[:, None] + v * c[:, None]
     return out
-
-
-def disc_local(width, thickness, discs: int) -> tuple[np.ndarray, np.ndarray]:
-    """Body-frame disc centres (N, discs, 2) and radii (N,), as ``contacts.disc_local``.
-
-    ``k = discs/4`` discs per face; face ``f`` starts at a corner of the rectangle inset by
-    the radius and takes ``k`` equal steps towards the next inset corner.
-    """
-    width = np.atleast_1d(np.asarray(width, dtype=float))
-    thickness = np.atleast_1d(np.asarray(thickness, dtype=float))
-    r = np.asarray(disc_radius(width, thickness, discs), dtype=float)
-    k = discs // 4
-    a = np.arange(discs)
-    f = a // k
-    t = (a % k) / k
-    iu = (0.5 * width - r)[:, None]
-    iv = (0.5 * thickness - r)[:, None]
-    u = np.select([f == 0, f == 1, f == 2], [iu + 0 * t, iu - 2 * iu * t, -iu + 0 * t], -iu + 2 * iu * t)
-    v = np.select([f == 0, f == 1, f == 2], [-iv + 2 * iv * t, iv + 0 * t, iv - 2 * iv * t], -iv + 0 * t)
-    return np.stack([u, v], axis=-1), r
 
 
 def disc_centres(x, z, theta, width, thickness, discs: int) -> tuple[np.ndarray, np.ndarray]:

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import diagnostics as diag
+from ..diagnostics import ENERGY_LEDGERS
 
 Series = tuple[np.ndarray, np.ndarray]
 
@@ -190,7 +191,15 @@ def capsized_by_position_history(snapshots: Mapping[str, np.ndarray], edges: np.
     return frac, count
 
 
-ENERGY_TERMS = ("released", "kinetic", "drag", "collision", "correction", "residual")
+def ledger_term(name: str) -> str:
+    """A ledger's term in the energy budget: ``drag_dissipated`` -> ``drag``,
+    ``correction_work`` -> ``correction``."""
+    return name.removesuffix("_dissipated").removesuffix("_work")
+
+
+# every energy ledger of the schema (diagnostics.ENERGY_LEDGERS) is a term of the budget
+LEDGER_TERMS = {ledger_term(name): name for name in ENERGY_LEDGERS}
+ENERGY_TERMS = ("released", "kinetic", *LEDGER_TERMS, "residual")
 
 
 def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -200,31 +209,30 @@ def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray
 
     - ``released``: potential energy released, ``E_p(0) - E_p(t)``;
     - ``kinetic``: kinetic energy gained, ``E_k(t) - E_k(0)``;
-    - ``drag``, ``collision``, ``correction``: cumulative energy removed by drag, by impulses
-      and by overlap corrections;
-    - ``residual``: ``E(0) - E(t) - (drag + collision + correction)``, the integrator's error;
+    - one term per energy ledger (:data:`LEDGER_TERMS`: ``drag``, ``collision``,
+      ``correction``, ...): cumulative energy removed by it (0 where an older file lacks it);
+    - ``residual``: ``E(0) - E(t) - sum(ledgers)``, the integrator's error;
     - ``total_loss``: ``E(0) - E(t)`` with ``E = E_k + E_p``.
 
-    By construction ``drag + collision + correction + residual == total_loss`` and
-    ``released == kinetic + drag + collision + correction + residual`` (up to rounding).
+    By construction ``sum(ledgers) + residual == total_loss`` and
+    ``released == kinetic + sum(ledgers) + residual`` (up to rounding).
     """
     pe = np.asarray(diagnostics["potential_energy"], dtype=float)
     ke = np.asarray(diagnostics["kinetic_energy"], dtype=float)
     if pe.size == 0:
         empty = np.zeros(0)
         return {k: empty for k in (*ENERGY_TERMS, "total_loss")}
-    drag = np.asarray(diagnostics["drag_dissipated"], dtype=float)
-    collision = np.asarray(diagnostics["collision_dissipated"], dtype=float)
-    correction = np.asarray(diagnostics["correction_work"], dtype=float)
+    ledgers = {
+        term: np.asarray(diagnostics[name], dtype=float) if name in diagnostics else np.zeros_like(pe)
+        for term, name in LEDGER_TERMS.items()
+    }
     energy = ke + pe
     total_loss = energy[0] - energy
     return {
         "released": pe[0] - pe,
         "kinetic": ke - ke[0],
-        "drag": drag,
-        "collision": collision,
-        "correction": correction,
-        "residual": total_loss - (drag + collision + correction),
+        **ledgers,
+        "residual": total_loss - sum(ledgers.values()),
         "total_loss": total_loss,
     }
 

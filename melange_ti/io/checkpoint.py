@@ -19,7 +19,7 @@ def checkpoint_path(run_path: str | Path) -> Path:
     return run_path.with_name(run_path.name + ".ckpt")
 
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3  # 3: ledgers and counters named by the schema
 
 
 def save(path: str | Path, data: dict[str, np.ndarray | str | int | float]) -> None:

@@ -19,21 +19,12 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from ..diagnostics import FIELDS
+from ..physics.schema import STATE_NAMES as STATE
+
 FORMAT_VERSION = 1
-STATE = ("x", "z", "theta", "vx", "vz", "omega")
-DIAGNOSTICS = (
-    "capsized_fraction",
-    "leading_edge",
-    "kinetic_energy",
-    "potential_energy",
-    "drag_dissipated",
-    "collision_dissipated",
-    "correction_work",
-    "contacts",
-    "wall_force",
-    "impulse_rate",
-)
-DIAG_INT = ("contacts",)
+DIAGNOSTICS = tuple(f.name for f in FIELDS)
+DIAG_INT = tuple(f.name for f in FIELDS if f.dtype.startswith("i"))
 
 
 class OutputError(RuntimeError):

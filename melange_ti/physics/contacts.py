@@ -3,7 +3,7 @@
 Each rectangle carries ``discs`` equal discs, ``k = discs/4`` per face, their centres spread
 evenly around the rectangle inset by the radius (face ``f`` starts at an inset corner and
 takes ``k`` equal steps towards the next), so the union is tangent to the true faces and the
-spacing on the longest face is exactly ``2 radius`` (see :func:`melange_ti.scene.disc_radius`).
+spacing on the longest face is exactly ``2 radius`` (see :func:`melange_ti.geometry.disc_radius`).
 """
 
 import taichi as ti
@@ -40,9 +40,9 @@ def to_world(local, x, z, c, s):
 
 
 @ti.func
-def cross2(a, b):
-    """z-component of the 2-D cross product ``a x b``."""
-    return a[0] * b[1] - a[1] * b[0]
+def cross2(u, w):
+    """z-component of the 2-D cross product ``u x w``."""
+    return u[0] * w[1] - u[1] * w[0]
 
 
 @ti.func

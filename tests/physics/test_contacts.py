@@ -1,6 +1,6 @@
 """Contacts: detection against brute force, the impulse law, rest, and hard cases (SPEC 2).
 
-The disc layout is reimplemented here in numpy (``disc_local``/``disc_radius``) so that the
+The disc layout comes from the numpy reference (:mod:`melange_ti.geometry`), so that the
 contact geometry is checked independently of the Taichi code.
 
 Bounds used for the hard cases (documented, not tuned to pass):
@@ -26,35 +26,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from melange_ti import scene as scene_mod
+from melange_ti.geometry import disc_local
 from melange_ti.model import Model
+from melange_ti.physics.schema import STATE_NAMES as STATE  # noqa: E402
 from melange_ti.scene import dumps_toml
 
-STATE = ("x", "z", "theta", "vx", "vz", "omega")
 FULL = ["gravity", "buoyancy", "drag", "collisions", "wall"]
 R = 0.8946
-
-
-# ---------------------------------------------------------------- numpy disc geometry
-def disc_radius(w, h, discs, spacing=2.0):
-    """Radius: ``k = discs/4`` discs per face, centres ``spacing`` radii apart on the longest
-    face, union tangent to the faces: ``r = L / (k spacing + 2)`` (2 radii: the paper's rule)."""
-    return np.maximum(w, h) / ((discs // 4) * spacing + 2.0)
-
-
-def disc_local(w, h, discs, r):
-    """(discs, 2) centres in the body frame: face f starts at an inset corner
-    (f=0: (+iu,-iv), 1: (+iu,+iv), 2: (-iu,+iv), 3: (-iu,-iv)) and takes k equal steps
-    counter-clockwise towards the next one."""
-    k = discs // 4
-    iu, iv = 0.5 * w - r, 0.5 * h - r
-    t = np.arange(k) / k
-    faces = [
-        np.stack([np.full(k, iu), -iv + 2 * iv * t], 1),
-        np.stack([iu - 2 * iu * t, np.full(k, iv)], 1),
-        np.stack([np.full(k, -iu), iv - 2 * iv * t], 1),
-        np.stack([-iu + 2 * iu * t, np.full(k, -iv)], 1),
-    ]
-    return np.concatenate(faces)
 
 
 class Geometry:
@@ -64,9 +42,9 @@ class Geometry:
         c = m.constants()
         self.w, self.h = c["width"], c["thickness"]
         self.discs = sc.contacts.discs
-        self.r = disc_radius(self.w, self.h, self.discs, getattr(sc.contacts, "disc_spacing", 2.0))
+        local, self.r = disc_local(self.w, self.h, self.discs, sc.contacts.disc_spacing)
         self.n = len(self.w)
-        self.local = [disc_local(self.w[i], self.h[i], self.discs, self.r[i]) for i in range(self.n)]
+        self.local = list(local)
         self.bound = 0.5 * np.hypot(self.w, self.h)
 
     def world(self, s, i):
@@ -565,10 +543,10 @@ def _contacts_now(m):
     """Contacts the next step would use, with their raw data: pairs, wall bodies, and each
     body's slots (partner, point, normal, gap) as bytes."""
     pairs, wall = m.contact_pairs()
-    from melange_ti.physics import layout as L
+    from melange_ti.physics.schema import BodyInt
 
-    nc = m.bi.to_numpy()[:, L.NCONTACT]
-    cd, cp = m.cd.to_numpy(), m.cp.to_numpy()
+    nc = m.arrays.bi.to_numpy()[:, BodyInt.NCONTACT]
+    cd, cp = m.arrays.cd.to_numpy(), m.arrays.cp.to_numpy()
     slots = [(cp[: nc[i], i].tobytes(), cd[: nc[i], i].tobytes()) for i in range(m.n)]
     return pairs, wall, slots
 
@@ -606,9 +584,6 @@ def test_candidate_lists_give_the_searched_contacts(detection_models, case):
     assert warm[2] == cold[2], "contact data differ between the kept lists and a fresh search"
 
 
-ENTRIES = 4  # physics.layout.ENTRIES (checked in the test)
-
-
 def _packed_row(discs=28, n=20):
     bergs = [{"x": 0.6 + k * 1.0, "z": -R * 1.4 + 0.7, "width": 1.0, "thickness": 1.4} for k in range(n)]
     sc = make_scene(FULL, bergs, contacts={"discs": discs})
@@ -623,17 +598,16 @@ def test_candidate_lists_are_kept_and_exact(discs):
     """A packed row, its lists made, then moved a little (well within the skin): the lists
     are reused (their recorded poses do not change) and give the searched contacts exactly;
     moved a lot, they are remade (poses change) and are exact again."""
-    from melange_ti.physics import layout as L
+    from melange_ti.physics.narrow import ENTRIES
 
-    assert L.ENTRIES == ENTRIES
     sc, s, rng = _packed_row(discs)
     m = Model(sc)
     assert m.lists
     m.set_state(s)
     first = _contacts_now(m)
     assert len(first[0]) >= 15  # the row touches along its length: not vacuous
-    poses = m.nr.to_numpy().copy()
-    used = m.nl.to_numpy()[:, :ENTRIES] >= 0
+    poses = m.arrays.nr.to_numpy().copy()
+    used = m.arrays.nl.to_numpy()[:, :ENTRIES] >= 0
 
     small = copy(s)
     small["x"] = small["x"] + rng.uniform(-1e-4, 1e-4, s["x"].size)
@@ -641,21 +615,21 @@ def test_candidate_lists_are_kept_and_exact(discs):
     small["vx"] = rng.uniform(-0.01, 0.01, s["x"].size)
     m.set_state(small)
     warm = _contacts_now(m)
-    kept = np.all(m.nr.to_numpy() == poses, axis=2) & used
+    kept = np.all(m.arrays.nr.to_numpy() == poses, axis=2) & used
     assert kept.sum() >= 15, "lists were not reused after a tiny move"
     m.clear_candidate_lists()
     assert warm == _contacts_now(m)
 
     m.set_state(small)
     _contacts_now(m)  # lists at `small`
-    poses = m.nr.to_numpy().copy()
-    used = m.nl.to_numpy()[:, :ENTRIES] >= 0
+    poses = m.arrays.nr.to_numpy().copy()
+    used = m.arrays.nl.to_numpy()[:, :ENTRIES] >= 0
     big = copy(small)
     big["theta"] = big["theta"] + np.where(np.arange(big["x"].size) % 2 == 0, 0.05, -0.05)
     big["x"] = big["x"] + np.arange(big["x"].size) * 0.02
     m.set_state(big)
     warm = _contacts_now(m)
-    remade = ~np.all(m.nr.to_numpy() == poses, axis=2) & used
+    remade = ~np.all(m.arrays.nr.to_numpy() == poses, axis=2) & used
     assert remade.sum() >= 15, "lists were not remade after a large move"
     m.clear_candidate_lists()
     assert warm == _contacts_now(m)

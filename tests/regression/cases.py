@@ -45,8 +45,7 @@ def _paper(count=30, tilt=0.15, gap=0.2, duration=40.0, discs=28, precision="f64
 def _row(speed_all=0.0, projectile=None, n=20, gap=0.1, duration=10.0):
     h = 1.4
     bergs = [
-        {"x": gap + 0.5 + q * (1 + gap), "z": -R * h + h / 2, "vx": speed_all, "width": 1.0, "thickness": h}
-        for q in range(n)
+        {"x": gap + 0.5 + q * (1 + gap), "z": -R * h + h / 2, "vx": speed_all, "width": 1.0, "thickness": h} for q in range(n)
     ]
     if projectile is not None:
         bergs.append({"x": bergs[-1]["x"] + 1.0 + 0.05, "z": -R * h + h / 2, "vx": -projectile, "width": 1.0, "thickness": h})

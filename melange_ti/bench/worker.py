@@ -1,10 +1,10 @@
 """Worker process for ``melange-ti bench accuracy``: runs a list of tasks at one precision.
 
 ``ti.init`` cannot safely be repeated in one process, and f32 runs need Taichi initialised
-with ``default_fp=f32``, so :mod:`melange_ti.bench` starts one of these per precision (and
-per parallel job)::
+with ``default_fp=f32``, so :mod:`melange_ti.bench.accuracy` starts one of these per
+precision (and per parallel job)::
 
-    python -m melange_ti.bench_worker JOB.json RESULT.json
+    python -m melange_ti.bench.worker JOB.json RESULT.json
 
 ``JOB.json`` is ``{"precision": "f64" | "f32", "threads": 1, "tasks": [{"kind": ...}, ...]}``;
 ``RESULT.json`` receives a list with one dict per task, in order, rewritten after every task
@@ -33,37 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import ContactOverflow
+from .common import STATE, dt_overrides, paper_scene, sync
+
 R_DEFAULT = 0.8946
-
-
-def _dt_overrides(dt: float, duration: float) -> list[tuple[str, object]]:
-    """Scene overrides for an arbitrary ``dt``: every interval a whole number of steps."""
-    steps = max(1, int(round(duration / dt)))
-
-    def whole(interval: float) -> float:
-        return dt * max(1, int(round(interval / dt)))
-
-    return [
-        ("time.dt", float(dt)),
-        ("time.duration", dt * steps),
-        ("output.snapshot_interval", whole(10.0)),
-        ("output.diagnostic_interval", whole(1.0)),
-        ("output.checkpoint_interval", whole(500.0)),
-    ]
-
-
-def _contact_overflow() -> type:
-    try:
-        from .errors import ContactOverflow
-    except ImportError:  # older layout
-        from .model import ContactOverflow
-    return ContactOverflow
-
-
-def _sync() -> None:
-    import taichi as ti
-
-    ti.sync()
 
 
 def _energy(sample: dict, index=None) -> float:
@@ -72,85 +45,24 @@ def _energy(sample: dict, index=None) -> float:
 
 
 def _finite(sample: dict) -> bool:
-    return all(np.all(np.isfinite(sample[k])) for k in ("x", "z", "theta", "vx", "vz", "omega"))
+    return all(np.all(np.isfinite(sample[k])) for k in STATE)
 
 
 # ---------------------------------------------------------------------------- paper scene
-def paper_scene(
-    n: int, precision: str, dt: float, duration: float, discs: int = 28, passes: int = 1, seed: int = 1, extra: list | None = None
-):
-    from . import scene
-
-    ov = [
-        ("shelf.count", int(n)),
-        ("scene.precision", precision),
-        ("contacts.discs", int(discs)),
-        ("contacts.contact_passes", int(passes)),
-        ("time.seed", int(seed)),
-        *_dt_overrides(dt, duration),
-        *(extra or []),
-    ]
-    return scene.load(None, ov)
-
-
-_MODELS: dict = {}
-_PRISTINE: dict = {}
-STATE = ("x", "z", "theta", "vx", "vz", "omega")
-
-
-def _model_key(sc, mode: str):
-    """Everything a compiled model depends on besides the initial state (seed, tilts)."""
-    if sc.shelf is not None:
-        geometry = ("shelf", sc.shelf.count, sc.shelf.width, sc.shelf.thickness)
-    else:
-        geometry = ("table", tuple((float(b.get("width", 1.0)), float(b.get("thickness", 1.4))) for b in sc.iceberg_table))
-    return (sc.effects, sc.precision, sc.physics, sc.contacts, sc.time.dt, geometry, mode)
-
-
-def model_for(sc, mode: str = "auto"):
-    """A model for scene ``sc`` started from its initial state.
-
-    Taichi compiles every model instance afresh (its offline cache is written when the
-    process exits), and compiling a contact kernel costs 2-15 s, so a model is kept per
-    configuration and restarted with ``set_state`` for every seed or repeat.
-    """
-    from .model import Model
-
-    key = _model_key(sc, mode)
-    model = _MODELS.get(key)
-    if model is None:
-        model = _MODELS[key] = Model(sc, mode=mode)
-        _PRISTINE[id(model)] = model.accumulators()  # counters (and any parameters kept with them) as built
-    else:
-        _reset(model, sc.icebergs())
-    return model
-
-
-def forget(model) -> None:
-    """Drop a model from the cache (after a contact overflow its flag stays set)."""
-    for key in [k for k, v in _MODELS.items() if v is model]:
-        del _MODELS[key]
-
-
-def _reset(model, bergs) -> None:
-    """Start ``model`` again from the initial state ``bergs`` with its counters as built."""
-    model.set_state({k: getattr(bergs, k) for k in STATE})
-    model.set_accumulators({k: np.copy(v) for k, v in _PRISTINE[id(model)].items()})
-
-
 def task_paper(t: dict, precision: str) -> dict:
-    """One configuration, every seed in ``seeds``; one compiled model reused across seeds."""
-    from . import diagnostics as dg
-
-    ContactOverflow = _contact_overflow()
+    """One configuration, every seed in ``seeds``, each from a new model (the kernels are
+    compiled once per effect set and precision, not per model)."""
+    from .. import diagnostics as dg
+    from ..model import Model
 
     dt = float(t["dt"])
     seeds = [int(v) for v in t.get("seeds", [t.get("seed", 1)])]
+    contacts = {"discs": t["discs"], "passes": t["passes"]}
     model = None
     runs = []
     for seed in seeds:
-        sc = paper_scene(t["n"], precision, dt, t["duration"], t["discs"], t["passes"], seed)
-        model = model_for(sc, t.get("mode", "auto"))
+        sc = paper_scene(t["n"], precision=precision, dt=dt, duration=t["duration"], seed=seed, **contacts)
+        model = Model(sc, mode=t.get("mode", "auto"))
         every = max(1, int(round(t.get("every", 1.0) / dt)))
         total = sc.time.steps
         s = model.sample()
@@ -165,13 +77,12 @@ def task_paper(t: dict, precision: str) -> dict:
             t0 = time.perf_counter()
             try:
                 model.advance(k)
-                _sync()
+                sync()
             except ContactOverflow as exc:
                 ok, error = False, f"ContactOverflow: {exc}"
-                forget(model)
                 break
             el = time.perf_counter() - t0
-            if step > 0:  # the first interval compiles the kernels (first seed): not timed
+            if step > 0:  # not timed: the first seed's first interval compiles the kernels
                 wall += el
                 timed_steps += k
             step += k
@@ -215,14 +126,14 @@ def single_scene(
     drag: float = 0.01,
     density_ratio: float = R_DEFAULT,
 ):
-    from . import scene
+    from .. import scene
 
     doc = {
         "scene": {"name": "bench_single", "effects": effects, "precision": precision},
         "physics": {"density_ratio": density_ratio, "drag": drag, "angular_drag": drag},
         "iceberg": bergs,
     }
-    return scene.from_dict(doc, _dt_overrides(dt, duration))
+    return scene.from_dict(doc, dt_overrides(dt, duration))
 
 
 def _zero_crossing_period(t: np.ndarray, y: np.ndarray) -> float:
@@ -238,9 +149,9 @@ def _zero_crossing_period(t: np.ndarray, y: np.ndarray) -> float:
 
 def task_analytic(t: dict, precision: str) -> dict:
     """Roll period (stable block), capsize energy (drag on), energy drift (drag off)."""
-    from . import diagnostics as dg
-    from .bench_peers import potential_energy
-    from .scene import equilibrium_z
+    from .. import diagnostics as dg
+    from ..scene import equilibrium_z
+    from .peers import potential_energy
 
     r = R_DEFAULT
     dt = float(t["dt"])
@@ -257,7 +168,7 @@ def task_analytic(t: dict, precision: str) -> dict:
         {"x": 0.0, "z": float(equilibrium_z(bh, r, 0.0)), "theta": amp, "width": bw, "thickness": bh},
         {"x": 10.0, "z": float(equilibrium_z(ch, r, 0.0)), "theta": tilt, "width": cw, "thickness": ch},
     ]
-    from .model import Model
+    from ..model import Model
 
     m = Model(single_scene(precision, dt, span, bergs, ["gravity", "buoyancy"]))
     every = max(1, int(round(float(t.get("sample_every", 0.05)) / dt)))
@@ -351,10 +262,10 @@ def task_stable_single(t: dict, precision: str) -> dict:
     semi-implicit Euler orbit exceeds its initial energy by at most
     (1 + w dt/2) / (1 - w dt/2), which is 100 only 1% below the linear limit w dt = 2.
     """
-    from . import diagnostics as dg
-    from .bench_peers import potential_energy
-    from .model import Model
-    from .scene import equilibrium_z
+    from .. import diagnostics as dg
+    from ..model import Model
+    from ..scene import equilibrium_z
+    from .peers import potential_energy
 
     r = R_DEFAULT
     bw, bh = 1.4, 1.0
@@ -401,16 +312,16 @@ def task_stable_single(t: dict, precision: str) -> dict:
 def task_stable_paper(t: dict, precision: str) -> dict:
     """The paper scene: unstable = non-finite, contact overflow, or the total energy rising
     above its initial value by more than ``rise`` x (N x the energy of one capsize)."""
-    from . import diagnostics as dg
-
-    ContactOverflow = _contact_overflow()
+    from .. import diagnostics as dg
+    from ..model import Model
 
     n = int(t["n"])
     duration = float(t["duration"])
     limit = float(t.get("rise", 0.05)) * n * float(dg.capsize_energy(R_DEFAULT, 1.0, 1.4))
+    settings = {"discs": t.get("discs", 28), "passes": t.get("passes", 1), "seed": t.get("seed", 1)}
 
     def test(dt: float):
-        m = model_for(paper_scene(n, precision, dt, duration, t.get("discs", 28), t.get("passes", 1), t.get("seed", 1)))
+        m = Model(paper_scene(n, precision=precision, dt=dt, duration=duration, **settings))
         total = int(round(duration / dt))
         every = max(1, int(round(1.0 / dt)))
         e0 = _energy(m.sample())
@@ -421,7 +332,6 @@ def task_stable_paper(t: dict, precision: str) -> dict:
             try:
                 m.advance(k)
             except ContactOverflow:
-                forget(m)
                 return False, f"contact overflow at t = {(step + k) * dt:g}"
             step += k
             s = m.sample()
@@ -465,7 +375,7 @@ def _clean(v):
 
 
 def run_job(job: dict, result_path: Path) -> int:
-    from . import runtime
+    from .. import runtime
 
     precision = job["precision"]
     runtime.init("cpu", job.get("threads", 1), precision)
@@ -496,7 +406,7 @@ def run_job(job: dict, result_path: Path) -> int:
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if len(argv) != 2:
-        print("usage: python -m melange_ti.bench_worker JOB.json RESULT.json", file=sys.stderr)
+        print("usage: python -m melange_ti.bench.worker JOB.json RESULT.json", file=sys.stderr)
         return 2
     job = json.loads(Path(argv[0]).read_text())
     return run_job(job, Path(argv[1]))

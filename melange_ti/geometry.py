@@ -1,0 +1,143 @@
+"""Reference geometry in numpy: the collision discs and the hydrostatics of a rectangle.
+
+Independent of the Taichi kernels (:mod:`melange_ti.physics`), and shared by the renderer,
+the pymunk peer (:mod:`melange_ti.bench.peers`) and the tests, which compare the kernels
+against these formulas. Units: widths, g = rho_w = 1 (SPEC section 1).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def disc_radius(width, thickness, discs: int, spacing: float = 2.0):
+    """Radius of the collision discs of rectangles ``width`` x ``thickness``.
+
+    ``k = discs/4`` discs per face have their centres on the rectangle inset by the radius
+    ``r`` (so the union is tangent to the true faces); on the longest face ``L`` they are
+    ``(L - 2r)/k`` apart. Setting that spacing to ``spacing * r`` gives
+    ``r = L / (k spacing + 2)``. ``spacing = 2`` (the default) is the paper's no-hole limit
+    ``l/(n_d/4 + 1) = 2 r_d``; smaller values overlap the discs more (smoother faces,
+    rounder corners). The radius may not exceed half the shortest face.
+    """
+    longest = np.maximum(width, thickness)
+    return longest / ((discs // 4) * spacing + 2.0)
+
+
+def disc_local(width, thickness, discs: int, spacing: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+    """Body-frame disc centres (N, discs, 2) and radii (N,), as ``contacts.disc_local``.
+
+    ``k = discs/4`` discs per face; face ``f`` starts at a corner of the rectangle inset by
+    the radius and takes ``k`` equal steps towards the next inset corner.
+    """
+    width = np.atleast_1d(np.asarray(width, dtype=float))
+    thickness = np.atleast_1d(np.asarray(thickness, dtype=float))
+    r = np.asarray(disc_radius(width, thickness, discs, spacing), dtype=float)
+    k = discs // 4
+    a = np.arange(discs)
+    f = a // k
+    t = (a % k) / k
+    iu = (0.5 * width - r)[:, None]
+    iv = (0.5 * thickness - r)[:, None]
+    u = np.select([f == 0, f == 1, f == 2], [iu + 0 * t, iu - 2 * iu * t, -iu + 0 * t], -iu + 2 * iu * t)
+    v = np.select([f == 0, f == 1, f == 2], [-iv + 2 * iv * t, iv + 0 * t, iv - 2 * iv * t], -iv + 0 * t)
+    return np.stack([u, v], axis=-1), r
+
+
+# ---------------------------------------------------------------- hydrostatics
+# Corners of the rectangle, counter-clockwise from the lower right in the body frame
+# (same order as melange_ti.physics.hydrostatics.corner).
+_SU = np.array([1.0, 1.0, -1.0, -1.0])
+_SV = np.array([-1.0, 1.0, 1.0, -1.0])
+
+
+def _segment(px, pz, qx, qz):
+    cross = px * qz - qx * pz
+    return 0.5 * cross, cross * (px + qx) / 6.0, cross * (pz + qz) / 6.0
+
+
+def submerged_moments(z, theta, half_width, half_thickness, water_level=0.0):
+    """Area ``A`` and first moments ``Sx, Sz`` (about the centre) of the submerged part.
+
+    Vectorised over icebergs (arrays of shape (N,)); exact clipping of the rectangle at the
+    flat water line. The buoyancy force is ``(0, A)`` and its torque about the centre ``Sx``
+    (units g = rho_water = 1).
+    """
+    z = np.asarray(z, dtype=np.float64)
+    theta = np.asarray(theta, dtype=np.float64)
+    hw = np.broadcast_to(np.asarray(half_width, dtype=np.float64), z.shape)
+    hh = np.broadcast_to(np.asarray(half_thickness, dtype=np.float64), z.shape)
+    c, s = np.cos(theta), np.sin(theta)
+    level = water_level - z
+    # corners relative to the centre, shape (4, N)
+    cx = _SU[:, None] * hw * c - _SV[:, None] * hh * s
+    cz = _SU[:, None] * hw * s + _SV[:, None] * hh * c
+    area = np.zeros_like(z)
+    sx = np.zeros_like(z)
+    sz = np.zeros_like(z)
+    exit_x = np.zeros_like(z)
+    entry_x = np.zeros_like(z)
+    for k in range(4):
+        px, pz = cx[k], cz[k]
+        qx, qz = cx[(k + 1) % 4], cz[(k + 1) % 4]
+        p_wet = pz < level
+        q_wet = qz < level
+        both = p_wet & q_wet
+        cut = p_wet != q_wet
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(cut, (level - pz) / np.where(cut, qz - pz, 1.0), 0.0)
+        mx = px + t * (qx - px)
+        # fully wet edge
+        a, b, d = _segment(px, pz, qx, qz)
+        # p wet, q dry: p -> cut (the boundary leaves the water)
+        a1, b1, d1 = _segment(px, pz, mx, level)
+        # p dry, q wet: cut -> q (the boundary enters the water)
+        a2, b2, d2 = _segment(mx, level, qx, qz)
+        leaving = cut & p_wet
+        entering = cut & q_wet
+        area += np.where(both, a, 0.0) + np.where(leaving, a1, 0.0) + np.where(entering, a2, 0.0)
+        sx += np.where(both, b, 0.0) + np.where(leaving, b1, 0.0) + np.where(entering, b2, 0.0)
+        sz += np.where(both, d, 0.0) + np.where(leaving, d1, 0.0) + np.where(entering, d2, 0.0)
+        exit_x = np.where(leaving, mx, exit_x)
+        entry_x = np.where(entering, mx, entry_x)
+    crossed = np.zeros(z.shape, dtype=bool)
+    for k in range(4):
+        crossed |= (cz[k] < level) != (cz[(k + 1) % 4] < level)
+    a, b, d = _segment(exit_x, level, entry_x, level)
+    area += np.where(crossed, a, 0.0)
+    sx += np.where(crossed, b, 0.0)
+    sz += np.where(crossed, d, 0.0)
+    return area, sx, sz
+
+
+def potential_energy(z, theta, width, thickness, density_ratio, water_level=0.0):
+    """``U = m g (z - wl) - rho_w g int_sub (z - wl) dA`` per iceberg (SPEC section 2)."""
+    z = np.asarray(z, dtype=np.float64)
+    mass = density_ratio * np.asarray(width) * np.asarray(thickness)
+    a, _, sz = submerged_moments(z, theta, 0.5 * np.asarray(width), 0.5 * np.asarray(thickness), water_level)
+    return mass * (z - water_level) - (sz + a * (z - water_level))
+
+
+def clipped_moments(z, theta, w, h, wl=0.0):
+    """Area A and first moment Sx = int (x - x_G) dA of a rectangle clipped at z = wl
+    (Sutherland-Hodgman in numpy, independent of the model's edge-by-edge formula)."""
+    c, s = math.cos(theta), math.sin(theta)
+    signs = ((1, -1), (1, 1), (-1, 1), (-1, -1))
+    corners = [(su * w / 2 * c - sv * h / 2 * s, z + su * w / 2 * s + sv * h / 2 * c) for su, sv in signs]
+    poly = []
+    for k in range(4):
+        p, q = corners[k], corners[(k + 1) % 4]
+        if p[1] <= wl:
+            poly.append(p)
+        if (p[1] < wl) != (q[1] < wl):
+            t = (wl - p[1]) / (q[1] - p[1])
+            poly.append((p[0] + t * (q[0] - p[0]), wl))
+    if len(poly) < 3:
+        return 0.0, 0.0
+    P = np.array(poly)
+    x, y = P[:, 0], P[:, 1]
+    x1, y1 = np.roll(x, -1), np.roll(y, -1)
+    cr = x * y1 - x1 * y
+    return cr.sum() / 2, (cr * (x + x1)).sum() / 6

@@ -1,0 +1,115 @@
+"""Column and table types of the schema, and the namespaces kernels index arrays with.
+
+The namespaces are declared here, empty, and filled by :mod:`.schema` once every effect has
+contributed its columns; effect modules import them from here (they are part of what the
+schema is built from), kernels may import them from either module.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+class Body:
+    """Columns of ``b`` (bodies): filled by :mod:`.schema`."""
+
+
+class BodyInt:
+    """Columns of ``bi`` (body_ints)."""
+
+
+class Contact:
+    """Columns of ``cd`` (contacts)."""
+
+
+class ListPose:
+    """Columns of ``nr`` (list_poses)."""
+
+
+class Cell:
+    """Columns of ``cells``."""
+
+
+class Param:
+    """Slots of ``par`` (params)."""
+
+
+class Scratch:
+    """Slots of ``scr`` (scratch)."""
+
+
+class Config:
+    """Slots of ``cfg`` (config)."""
+
+
+class Counter:
+    """Slots of ``cnt`` (counters)."""
+
+
+class Acc:
+    """Slots of ``acc`` (accumulators)."""
+
+
+ROLES = ("state", "constant", "cache", "scratch", "ledger", "counter", "config")
+
+
+@dataclass(frozen=True)
+class Column:
+    """One column of a packed array.
+
+    ``name``: the constant in the namespace (``VX``); ``output``: the name in files and
+    in :meth:`Model.sample` (``vx``), or ``None``; ``units``: non-dimensional units (lengths
+    in widths ``w``, time in ``sqrt(w/g)``, densities in ``rho_w``; energies per unit length
+    into the page are in ``rho_w g w^3``); ``line``: cache line (bodies only);
+    ``source``: for parameters, the scene key the value comes from (``physics.drag``)."""
+
+    name: str
+    role: str
+    units: str
+    doc: str
+    output: str | None = None
+    line: int | None = None
+    source: str | None = None
+
+    def __post_init__(self):
+        if self.role not in ROLES:
+            raise ValueError(f"column {self.name}: role {self.role!r} not in {ROLES}")
+
+
+@dataclass(frozen=True)
+class Table:
+    """A packed array: ``array`` is its attribute in :class:`Arrays` (``b``), ``dtype``
+    ``"real"`` (the scene's precision), ``"f64"``, ``"i32"`` or ``"i64"``; ``shape`` says
+    what indexes it, the column last."""
+
+    name: str
+    array: str
+    dtype: str
+    shape: str
+    doc: str
+    columns: tuple[Column, ...]
+    namespace: type
+    width: int = 0  # columns allocated (>= len(columns)); 0: exactly the columns
+
+    def __post_init__(self):
+        names = [c.name for c in self.columns]
+        if len(set(names)) != len(names):
+            raise ValueError(f"table {self.name}: duplicate column names")
+        for k, name in enumerate(names):
+            setattr(self.namespace, name, k)
+        self.namespace.SIZE = self.size
+        self.namespace.TABLE = self
+
+    @property
+    def size(self) -> int:
+        return max(self.width, len(self.columns))
+
+    def index(self, name: str) -> int:
+        return [c.name for c in self.columns].index(name)
+
+    def with_role(self, *roles: str) -> tuple[Column, ...]:
+        return tuple(c for c in self.columns if c.role in roles)
+
+    def outputs(self, *roles: str) -> dict[str, int]:
+        """``{output name: column}`` of the columns with an output name and one of ``roles``."""
+        return {c.output: k for k, c in enumerate(self.columns) if c.output and (not roles or c.role in roles)}

@@ -1,0 +1,118 @@
+"""Overlap correction: the overlap left after the drift is removed along the contact normal,
+split by inverse mass so that the pair's centre of mass does not move (the paper: "move a
+colliding pair back until they are just touching").
+
+Sequential, in the impulse pass's order. The overlap of a pair is estimated from its gap when
+found, the final velocities and the pushes so far (:func:`predicted_gap`); the wall's is
+measured from the discs. Sweeps repeat (at most ``MAX_CORRECT``) until none pushes, so a
+push that drives a body back into the wall or a third body is undone too. The potential
+energy the pushes add is booked per moved body (``Acc.CORRECTION``, ``correction_work``).
+"""
+
+import taichi as ti
+
+from .effects import wall
+from .forces import potential_energy
+from .impulses import normal_speed
+from .schema import Acc, Body, BodyInt, Contact, Param
+
+MAX_CORRECT = 4  # correction sweeps while some overlap is still being pushed apart
+
+
+@ti.func
+def predicted_gap(a: ti.template(), i, j, px, pz, nx, nz, gap):
+    """Gap of the contact (i, j) at the end of the step: its gap when found, advanced
+    linearly with the final velocities (arms from the bodies' positions at the start of
+    the step). Call after the drift and before any correction."""
+    b = ti.static(a.b)
+    dt = a.par[Param.DT]
+    rx1 = px - (b[i, Body.X] - dt * b[i, Body.VX])
+    rz1 = pz - (b[i, Body.Z] - dt * b[i, Body.VZ])
+    rx2 = px - (b[j, Body.X] - dt * b[j, Body.VX])
+    rz2 = pz - (b[j, Body.Z] - dt * b[j, Body.VZ])
+    return gap + dt * normal_speed(a, i, j, rx1, rz1, rx2, rz2, nx, nz)
+
+
+@ti.func
+def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end):
+    """Remove the overlap left after the drift, split by inverse mass (pair centre fixed).
+
+    Between two icebergs the overlap is ``g_end`` (:func:`predicted_gap`) plus the pushes
+    so far along the normal; at the wall (j < 0, normal fixed) it is measured exactly from
+    the discs. A body moved for the first time in this pass records its potential energy
+    (``Body.POT_START``) and is marked with the sweep (``BodyInt.PUSHED``); the pass books
+    the energy change per body."""
+    b = ti.static(a.b)
+    inv1 = b[i, Body.INV_MASS]
+    inv2 = 0.0
+    g = 0.0
+    if j >= 0:
+        inv2 = b[j, Body.INV_MASS]
+        g = g_end + (b[i, Body.SHIFT_X] - b[j, Body.SHIFT_X]) * nx + (b[i, Body.SHIFT_Z] - b[j, Body.SHIFT_Z]) * nz
+    else:
+        g = wall.gap(a, i)
+    pushed = 0
+    if g < -1e-12:
+        pushed = 1
+        depth = -g
+        if a.bi[i, BodyInt.PUSHED] < 0:
+            b[i, Body.POT_START] = potential_energy(fx, a, i)
+        a.bi[i, BodyInt.PUSHED] = sweep
+        s1 = depth * inv1 / (inv1 + inv2)
+        b[i, Body.X] += s1 * nx
+        b[i, Body.Z] += s1 * nz
+        b[i, Body.SHIFT_X] += s1 * nx
+        b[i, Body.SHIFT_Z] += s1 * nz
+        if j >= 0:
+            if a.bi[j, BodyInt.PUSHED] < 0:
+                b[j, Body.POT_START] = potential_energy(fx, a, j)
+            a.bi[j, BodyInt.PUSHED] = sweep
+            s2 = depth * inv2 / (inv1 + inv2)
+            b[j, Body.X] -= s2 * nx
+            b[j, Body.Z] -= s2 * nz
+            b[j, Body.SHIFT_X] -= s2 * nx
+            b[j, Body.SHIFT_Z] -= s2 * nz
+    return pushed
+
+
+@ti.func
+def correction_pass(fx: ti.template(), a: ti.template()):
+    b = ti.static(a.b)
+    cd = ti.static(a.cd)
+    n = b.shape[0]
+    for i in range(n):
+        b[i, Body.SHIFT_X] = 0.0
+        b[i, Body.SHIFT_Z] = 0.0
+        a.bi[i, BodyInt.PUSHED] = -1  # the last sweep that moved body i
+        if ti.static(fx.collisions):
+            # each contact's end-of-step gap, once, before anything is pushed (stored in Contact.GAP)
+            for s in range(a.bi[i, BodyInt.NCONTACT]):
+                cd[s, i, Contact.GAP] = predicted_gap(
+                    a,
+                    i,
+                    a.cp[s, i],
+                    cd[s, i, Contact.PX],
+                    cd[s, i, Contact.PZ],
+                    cd[s, i, Contact.NX],
+                    cd[s, i, Contact.NZ],
+                    cd[s, i, Contact.GAP],
+                )
+    for sweep in range(MAX_CORRECT):
+        pushed = 0
+        # after the first sweep, only contacts of a body moved since the previous sweep
+        since = sweep - 1
+        for i in range(n):
+            if ti.static(fx.wall):
+                if a.bi[i, BodyInt.WALL_ON] and a.bi[i, BodyInt.PUSHED] >= since:
+                    pushed += push(fx, a, sweep, i, -1, 1.0, 0.0, 0.0)
+            if ti.static(fx.collisions):
+                for s in range(a.bi[i, BodyInt.NCONTACT]):
+                    j = a.cp[s, i]
+                    if ti.max(a.bi[i, BodyInt.PUSHED], a.bi[j, BodyInt.PUSHED]) >= since:
+                        pushed += push(fx, a, sweep, i, j, cd[s, i, Contact.NX], cd[s, i, Contact.NZ], cd[s, i, Contact.GAP])
+        if pushed == 0:
+            break
+    # the corrections' change of potential energy, per moved body, in body order
+    for i in range(n):
+        if a.bi[i, BodyInt.PUSHED] >= 0:
+            a.acc[Acc.CORRECTION] -= potential_energy(fx, a, i) - b[i, Body.POT_START]

@@ -1,0 +1,43 @@
+"""The effects a scene may name (``scene.effects``): one module each, listed in :data:`REGISTRY`.
+
+Each module declares an :class:`~.base.Effect`: its ``[physics]`` keys and their checks, its
+parameter slots, its per-iceberg columns (an energy ledger among them) and its ``@ti.func``
+terms. From the registry come the scene's keys and validation (:mod:`melange_ti.scene`), the
+parameter fill (:mod:`melange_ti.model`), the schema's columns (:mod:`..schema`), the
+diagnostics and the energy budget. To add an effect: write its module, add it here, and
+describe it in the docs.
+
+The order is the order in which forces are summed, and so part of the results' bits.
+"""
+
+from dataclasses import make_dataclass
+
+from . import buoyancy, collisions, drag, gravity, wall
+from .base import Effect, Key
+
+REGISTRY: tuple[Effect, ...] = (gravity.EFFECT, buoyancy.EFFECT, drag.EFFECT, collisions.EFFECT, wall.EFFECT)
+NAMES: tuple[str, ...] = tuple(e.name for e in REGISTRY)
+BY_NAME = {e.name: e for e in REGISTRY}
+FORCES = tuple(e for e in REGISTRY if e.force is not None)
+DAMPERS = tuple(e for e in REGISTRY if e.damp is not None)
+POTENTIALS = tuple(e for e in REGISTRY if e.potential is not None)
+
+
+def _contacts(self) -> bool:
+    """True when any contact (iceberg-iceberg or wall) is simulated."""
+    return self.collisions or self.wall
+
+
+def _names(self) -> list[str]:
+    return [n for n in NAMES if getattr(self, n)]
+
+
+Effects = make_dataclass(
+    "Effects",
+    [(n, bool, False) for n in NAMES],
+    frozen=True,
+    namespace={"contacts": property(_contacts), "names": _names, "__doc__": "Which effects are compiled into the model."},
+)
+Effects.__module__ = __name__
+
+__all__ = ["REGISTRY", "NAMES", "BY_NAME", "Effect", "Effects", "Key", "FORCES", "DAMPERS", "POTENTIALS"]

@@ -1,0 +1,75 @@
+"""Forces and integration: the kick (body forces, then damping) and the drift.
+
+Semi-implicit Euler, velocities first: ``v += dt F/m``, ``omega += dt tau/I`` from the
+forces of the effects named (:data:`.effects.FORCES`, summed in registry order), then each
+named damping term (:data:`.effects.DAMPERS`); after contacts, ``x += dt v`` and
+``theta += dt omega``. The drift caches cos and sin of the new tilt (``Body.COS``,
+``Body.SIN``), the one place a step evaluates trigonometric functions.
+"""
+
+import taichi as ti
+
+from .effects import DAMPERS, FORCES, POTENTIALS
+from .schema import Body, Param
+
+HAS_TORQUE = tuple(e for e in FORCES if e.torque)
+
+
+def any_on(effects, fx) -> bool:
+    """Whether ``fx`` names any of ``effects`` (for ``ti.static``)."""
+    return any(e.on(fx) for e in effects)
+
+
+@ti.func
+def kick(fx: ti.template(), a: ti.template(), i):
+    b = ti.static(a.b)
+    dt = a.par[Param.DT]
+    m = b[i, Body.MASS]
+    fz = 0.0
+    tau = 0.0
+    for e in ti.static(FORCES):
+        if ti.static(e.on(fx)):
+            f = e.force(a, i)
+            fz += f[0]
+            if ti.static(e.torque):
+                tau += f[1]
+    if ti.static(any_on(FORCES, fx)):
+        b[i, Body.VZ] += dt * fz / m
+    if ti.static(any_on(HAS_TORQUE, fx)):
+        b[i, Body.OM] += dt * tau / b[i, Body.INERTIA]
+    for e in ti.static(DAMPERS):
+        if ti.static(e.on(fx)):
+            e.damp(a, i)
+
+
+@ti.func
+def orient(a: ti.template(), i):
+    """Cache cos and sin of body i's tilt: the one place a step evaluates them."""
+    a.b[i, Body.COS] = ti.cos(a.b[i, Body.TH])
+    a.b[i, Body.SIN] = ti.sin(a.b[i, Body.TH])
+
+
+@ti.func
+def drift(a: ti.template(), i):
+    b = ti.static(a.b)
+    dt = a.par[Param.DT]
+    b[i, Body.X] += dt * b[i, Body.VX]
+    b[i, Body.Z] += dt * b[i, Body.VZ]
+    b[i, Body.TH] += dt * b[i, Body.OM]
+    orient(a, i)
+
+
+@ti.func
+def potential_energy(fx: ti.template(), a: ti.template(), i):
+    """Potential energy of body i: the sum of the named effects' terms (SPEC section 2)."""
+    u = 0.0
+    for e in ti.static(POTENTIALS):
+        if ti.static(e.on(fx)):
+            u += e.potential(a, i)
+    return u
+
+
+@ti.func
+def kinetic_energy(a: ti.template(), i):
+    b = ti.static(a.b)
+    return 0.5 * b[i, Body.MASS] * (b[i, Body.VX] ** 2 + b[i, Body.VZ] ** 2) + 0.5 * b[i, Body.INERTIA] * b[i, Body.OM] ** 2

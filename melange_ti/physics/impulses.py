@@ -1,0 +1,150 @@
+"""The contact law and the impulse pass (SPEC section 2, contact impulses).
+
+Per contact with point p, unit normal n (from body j to body i) and arms r_k = p - x_k:
+``J = -(1 + e) (v_rel . n) / K`` with ``K = 1/m_i + 1/m_j + (r_i x n)^2/I_i + (r_j x n)^2/I_j``,
+applied only when the pair approaches and would touch within the step (speculative
+contacts); each impulse dissipates exactly ``0.5 (1 - e^2) (v_rel . n)^2 / K``
+(``Acc.COLLISION``). The wall is a partner of infinite mass (j < 0).
+
+The pass is sequential in a fixed order: body i ascending, its wall contact first, then its
+partners j > i ascending; repeated ``contact_passes`` times (Gauss-Seidel). Then the
+``check`` stage: while some contact would still close by more than ``DEEP_FRACTION`` of a
+disc radius this step, the pass runs again, and if an impulse made a body faster than the
+reach it was searched with (a struck iceberg in a packed row), detection runs again first
+(at most ``MAX_DETECT`` rounds, :mod:`.stages`), so chains cannot tunnel.
+"""
+
+import taichi as ti
+
+from .broad import outran
+from .contacts import cross2
+from .schema import Acc, Body, BodyInt, Config, Contact, Counter, Param
+
+DEEP_FRACTION = 0.1  # a contact still closing by more than this many disc radii runs the pass again
+
+
+@ti.func
+def normal_speed(a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz):
+    """Normal relative velocity at the contact; j < 0 is the wall (at rest)."""
+    b = ti.static(a.b)
+    v1x = b[i, Body.VX] - b[i, Body.OM] * rz1
+    v1z = b[i, Body.VZ] + b[i, Body.OM] * rx1
+    v2x = 0.0
+    v2z = 0.0
+    if j >= 0:
+        v2x = b[j, Body.VX] - b[j, Body.OM] * rz2
+        v2z = b[j, Body.VZ] + b[j, Body.OM] * rx2
+    return (v1x - v2x) * nx + (v1z - v2z) * nz
+
+
+@ti.func
+def resolve(a: ti.template(), i, j, px, pz, nx, nz, gap):
+    """Apply the impulse of the contact law to the pair (i, j) (j < 0: the wall) if it approaches."""
+    b = ti.static(a.b)
+    rx1 = px - b[i, Body.X]
+    rz1 = pz - b[i, Body.Z]
+    rx2 = 0.0
+    rz2 = 0.0
+    if j >= 0:
+        rx2 = px - b[j, Body.X]
+        rz2 = pz - b[j, Body.Z]
+    vn = normal_speed(a, i, j, rx1, rz1, rx2, rz2, nx, nz)
+    if vn < 0 and gap + a.par[Param.DT] * vn < 0:
+        e = a.par[Param.RESTITUTION]
+        n = ti.Vector([nx, nz])
+        a1 = cross2(ti.Vector([rx1, rz1]), n)
+        kk = b[i, Body.INV_MASS] + a1 * a1 / b[i, Body.INERTIA]
+        a2 = 0.0
+        if j >= 0:
+            a2 = cross2(ti.Vector([rx2, rz2]), n)
+            kk += b[j, Body.INV_MASS] + a2 * a2 / b[j, Body.INERTIA]
+        jn = -(1.0 + e) * vn / kk
+        b[i, Body.VX] += jn * nx / b[i, Body.MASS]
+        b[i, Body.VZ] += jn * nz / b[i, Body.MASS]
+        b[i, Body.OM] += a1 * jn / b[i, Body.INERTIA]
+        if j >= 0:
+            b[j, Body.VX] -= jn * nx / b[j, Body.MASS]
+            b[j, Body.VZ] -= jn * nz / b[j, Body.MASS]
+            b[j, Body.OM] -= a2 * jn / b[j, Body.INERTIA]
+        else:
+            a.acc[Acc.WALL_IMPULSE] += jn
+        a.acc[Acc.COLLISION] += 0.5 * (1.0 - e * e) * vn * vn / kk
+        a.acc[Acc.IMPULSE] += jn
+        a.cnt[Counter.CONTACTS] += 1
+
+
+@ti.func
+def impulse_pass(fx: ti.template(), a: ti.template()):
+    b = ti.static(a.b)
+    n = ti.cast(a.cfg[Config.N], ti.i32)
+    for _ in range(ti.cast(a.cfg[Config.PASSES], ti.i32)):
+        for i in range(n):
+            if ti.static(fx.wall):
+                if a.bi[i, BodyInt.WALL_ON]:
+                    resolve(a, i, -1, a.par[Param.WALL_X], b[i, Body.WALL_PZ], 1.0, 0.0, b[i, Body.WALL_GAP])
+            if ti.static(fx.collisions):
+                for s in range(a.bi[i, BodyInt.NCONTACT]):
+                    cd = ti.static(a.cd)
+                    resolve(
+                        a,
+                        i,
+                        a.cp[s, i],
+                        cd[s, i, Contact.PX],
+                        cd[s, i, Contact.PZ],
+                        cd[s, i, Contact.NX],
+                        cd[s, i, Contact.NZ],
+                        cd[s, i, Contact.GAP],
+                    )
+
+
+@ti.func
+def deep_approach(a: ti.template(), i, j, px, pz, nx, nz, gap):
+    """1 if the contact still approaches so fast that it would overlap by more than
+    DEEP_FRACTION of a disc radius by the end of the step."""
+    b = ti.static(a.b)
+    rx2 = 0.0
+    rz2 = 0.0
+    r = b[i, Body.RADIUS]
+    if j >= 0:
+        rx2 = px - b[j, Body.X]
+        rz2 = pz - b[j, Body.Z]
+        r = ti.min(r, b[j, Body.RADIUS])
+    vn = normal_speed(a, i, j, px - b[i, Body.X], pz - b[i, Body.Z], rx2, rz2, nx, nz)
+    return ti.cast(vn < 0 and gap + a.par[Param.DT] * vn < -DEEP_FRACTION * r, ti.i32)
+
+
+@ti.func
+def deep_contacts(fx: ti.template(), a: ti.template(), i):
+    """How many of body i's contacts (wall, partners j > i) still approach deeply."""
+    b = ti.static(a.b)
+    cd = ti.static(a.cd)
+    count = 0
+    if ti.static(fx.wall):
+        if a.bi[i, BodyInt.WALL_ON]:
+            count += deep_approach(a, i, -1, a.par[Param.WALL_X], b[i, Body.WALL_PZ], 1.0, 0.0, b[i, Body.WALL_GAP])
+    if ti.static(fx.collisions):
+        for s in range(a.bi[i, BodyInt.NCONTACT]):
+            j = a.cp[s, i]
+            count += deep_approach(
+                a,
+                i,
+                j,
+                cd[s, i, Contact.PX],
+                cd[s, i, Contact.PZ],
+                cd[s, i, Contact.NX],
+                cd[s, i, Contact.NZ],
+                cd[s, i, Contact.GAP],
+            )
+    return count
+
+
+@ti.func
+def check(fx: ti.template(), a: ti.template()):
+    """``Counter.AGAIN``: 2 if some body outran its reach (detect again), else 1 if some
+    contact still approaches deeply (another impulse pass), else 0."""
+    a.cnt[Counter.AGAIN] = 0
+    for i in range(a.b.shape[0]):
+        if outran(a, i):
+            ti.atomic_max(a.cnt[Counter.AGAIN], 2)
+        elif deep_contacts(fx, a, i) > 0:
+            ti.atomic_max(a.cnt[Counter.AGAIN], 1)

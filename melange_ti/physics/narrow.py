@@ -1,0 +1,372 @@
+"""Narrow phase: one contact per touching pair of icebergs, from their discs.
+
+Contacts are found in parallel (one body i per thread): body i's contacts with partners
+j > i go into its slots sorted by j, so the contact list does not depend on the thread
+count. A contact is kept if its gap may close within this step (speculative contacts: no
+tunnelling at any speed); the wall's contact is found by :func:`.effects.wall.detect`.
+
+**Candidate lists.** In the serial form (``Config.LISTS``) each body keeps, per partner,
+the disc pairs within touching distance plus a skin, and visits only those while the pair
+has not moved by more than the skin allows (:func:`narrow`): the same contacts, bit for bit,
+for less work. ``nl`` (N, ENTRIES * (2 + PAIRS), i32) holds body i's lists, one entry e per
+partner: the partner (:func:`list_partner`, -1: free), the count of kept pairs
+(:func:`list_count`, -1: none kept) and the pairs' codes (:func:`list_code`), one 1 kB row
+per body with the partners and counts in its first cache line. ``nr`` holds the pose each
+list was made at (:data:`.schema.LIST_POSES`); ``BodyInt.NEXT_ENTRY`` is the entry a new
+partner takes (round robin).
+"""
+
+import taichi as ti
+
+from .broad import cell_size
+from .contacts import face_line, line_window
+from .effects import wall
+from .schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Param
+
+# Candidate lists: partners kept per body, disc pairs kept per partner, and the skin (a
+# fraction of the smaller disc radius) added to the touching distance.
+ENTRIES = 4
+PAIRS = 62
+SKIN = 0.2
+
+# A kept disc pair is one i32 code: i's face (2 bits), i's disc on it (6), j's face (2),
+# j's disc (6); so lists are kept only up to MAX_FACE_DISCS discs per face.
+FACE_BITS = 2
+DISC_BITS = 6
+MAX_FACE_DISCS = 1 << DISC_BITS
+_FB_SHIFT = DISC_BITS
+_IA_SHIFT = DISC_BITS + FACE_BITS
+_FA_SHIFT = 2 * DISC_BITS + FACE_BITS
+
+
+LIST_WIDTH = ENTRIES * (2 + PAIRS)  # a body's row of ``nl``
+
+
+@ti.func
+def list_partner(e):
+    """Position of entry e's partner in a body's row of ``nl``."""
+    return e
+
+
+@ti.func
+def list_count(e):
+    """Position of entry e's count of kept pairs."""
+    return ENTRIES + e
+
+
+@ti.func
+def list_code(e, q):
+    """Position of entry e's q-th kept pair."""
+    return 2 * ENTRIES + e * PAIRS + q
+
+
+@ti.func
+def pack_pair(fa, ia, fb, ib):
+    return (fa << _FA_SHIFT) | (ia << _IA_SHIFT) | (fb << _FB_SHIFT) | ib
+
+
+@ti.func
+def unpack_pair(code):
+    return (
+        code >> _FA_SHIFT,
+        (code >> _IA_SHIFT) & (MAX_FACE_DISCS - 1),
+        (code >> _FB_SHIFT) & ((1 << FACE_BITS) - 1),
+        code & (MAX_FACE_DISCS - 1),
+    )
+
+
+@ti.func
+def boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, gap):
+    """Separating-axis test of two rectangles, in i's frame: j's centre (cu, cv), j's tilt
+    relative to i (cos c, sin s). True when they are more than ``gap`` apart on some axis."""
+    ac = ti.abs(c)
+    as_ = ti.abs(s)
+    # i's axes
+    far = ti.abs(cu) > hwi + hwj * ac + hhj * as_ + gap or ti.abs(cv) > hhi + hwj * as_ + hhj * ac + gap
+    # j's axes: u_j = (c, s), v_j = (-s, c)
+    pu = cu * c + cv * s
+    pv = -cu * s + cv * c
+    far = far or ti.abs(pu) > hwj + hwi * ac + hhi * as_ + gap or ti.abs(pv) > hhj + hwi * as_ + hhi * ac + gap
+    return far
+
+
+@ti.func
+def face_in_j(fa, k, hwi, hhi, ri, cu, cv, c, s):
+    """i's face ``fa`` in j's frame: its discs are at ``(au0, av0) + ia (dau, dav)``. j's
+    centre is at (cu, cv) in i's frame, and (c, s) is j's tilt relative to i."""
+    u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
+    step = length / k
+    eu = u0 - cu
+    ev = v0 - cv
+    return eu * c + ev * s, -eu * s + ev * c, step * (du * c + dv * s), step * (-du * s + dv * c)
+
+
+@ti.func
+def j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv):
+    """For a disc of i at (au, av) in j's frame and j's face ``fb``: its offset across the
+    face (``perp``) and along it from the face's first disc (``along``), and the face's disc
+    spacing and its inverse. Face fb's disc ``ib`` is ``along - ib * st`` away along it."""
+    perp = au - iuj
+    along = av + ivj
+    st = stv
+    inv_st = inv_stv
+    if fb == 1:
+        perp, along, st, inv_st = av - ivj, iuj - au, stu, inv_stu
+    elif fb == 2:
+        perp, along = au + iuj, ivj - av
+    elif fb == 3:
+        perp, along, st, inv_st = av + ivj, au + iuj, stu, inv_stu
+    return perp, along, st, inv_st
+
+
+@ti.func
+def pair_term(fb, perp, off, d2, au, av, ri, rj):
+    """Gap and weighted-sum term (1, contact point u, v, normal u, v; j's frame) of the disc
+    pair at offset (perp, off) from j's disc on face fb, ``d2 = perp^2 + off^2 > 0``."""
+    # offset from j's disc to i's disc, in j's frame
+    du_, dv_ = perp, off
+    if fb == 1:
+        du_, dv_ = -off, perp
+    elif fb == 2:
+        du_, dv_ = perp, -off
+    elif fb == 3:
+        du_, dv_ = off, perp
+    dist = ti.sqrt(d2)
+    g = dist - ri - rj
+    inv = 1.0 / dist
+    t = (rj + 0.5 * g) * inv
+    return g, ti.Vector([1.0, au - du_ + du_ * t, av - dv_ + dv_ * t, du_ * inv, dv_ * inv])
+
+
+@ti.func
+def insert_contact(a: ti.template(), i, j, px, pz, nx, nz, gap):
+    cnt = a.bi[i, BodyInt.NCONTACT]
+    if cnt >= a.cfg[Config.SLOTS]:
+        a.cnt[Counter.OVERFLOW] = 1
+    else:
+        pos = cnt
+        while pos > 0 and a.cp[pos - 1, i] > j:
+            a.cp[pos, i] = a.cp[pos - 1, i]
+            for c in ti.static(range(Contact.SIZE)):
+                a.cd[pos, i, c] = a.cd[pos - 1, i, c]
+            pos -= 1
+        a.cp[pos, i] = j
+        a.cd[pos, i, Contact.PX] = px
+        a.cd[pos, i, Contact.PZ] = pz
+        a.cd[pos, i, Contact.NX] = nx
+        a.cd[pos, i, Contact.NZ] = nz
+        a.cd[pos, i, Contact.GAP] = gap
+        a.bi[i, BodyInt.NCONTACT] = cnt + 1
+
+
+@ti.func
+def narrow(a: ti.template(), i, j, rch, motion):
+    """One contact for the pair (i, j) from its disc pairs.
+
+    Disc pairs closer than ``motion`` (how far the pair can close at its current
+    velocities) merge into one contact, weighted by ``motion - gap``. If none is that close
+    but some are within ``rch`` (room for velocities an impulse may add), those merge,
+    weighted by ``rch - gap``, into a standby contact, so a struck iceberg meets its
+    neighbour. Sums are taken in j's body frame, over the disc pairs within touching
+    distance in a fixed order (i's face, i's disc, j's face, j's disc).
+
+    Finding those pairs: on each face of i, the discs within reach of j's box; for each, on
+    each face of j, the discs within reach of it (an index range from its distance along the
+    face). Where lists are on (``a.cfg[Config.LISTS]``: the serial form up to ``LISTS_MAX_N``
+    icebergs), that search also keeps, in i's candidate list for j (``nl``, ``nr``), every
+    disc pair within touching distance plus a skin, in the same order, with the pair's
+    relative pose. While neither body has moved relative to the other by more than the skin allows,
+    later steps visit only the kept pairs. They contain every pair within touching distance
+    and the order is the same, so a contact is bit-for-bit the same either way; the list
+    only saves the search.
+    """
+    b = ti.static(a.b)
+    k = ti.cast(a.cfg[Config.K], ti.i32)
+    ci, si, cj, sj = b[i, Body.COS], b[i, Body.SIN], b[j, Body.COS], b[j, Body.SIN]
+    xi, zi, xj, zj = b[i, Body.X], b[i, Body.Z], b[j, Body.X], b[j, Body.Z]
+    hwi, hhi, ri = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], b[i, Body.RADIUS]
+    hwj, hhj, rj = 0.5 * b[j, Body.WIDTH], 0.5 * b[j, Body.THICK], b[j, Body.RADIUS]
+    dx = xj - xi
+    dz = zj - zi
+    cu = dx * ci + dz * si  # j's centre in i's frame
+    cv = -dx * si + dz * ci
+    touch = ri + rj + rch
+    # j's tilt relative to i, and i's centre in j's frame
+    c = ci * cj + si * sj
+    s = sj * ci - cj * si
+    tu = -cu * c - cv * s
+    tv = cu * s - cv * c
+    # weighted sums of (1, contact point u, v, normal u, v): by motion - gap, and by
+    # rch - gap for a standby contact
+    near = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
+    standby = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
+    gap = 1e30
+    touch2 = touch * touch
+    # j's disc-centre rectangle and its disc spacing along the u- and v-faces (a face of
+    # zero length holds k coincident discs: every index is then in range)
+    iuj = hwj - rj
+    ivj = hhj - rj
+    stu = 2.0 * iuj / k
+    stv = 2.0 * ivj / k
+    inv_stu = 0.0
+    inv_stv = 0.0
+    if stu > 1e-12 * (hwj + hhj):
+        inv_stu = 1.0 / stu
+    if stv > 1e-12 * (hwj + hhj):
+        inv_stv = 1.0 / stv
+    # i's list entry for j, if any, and whether it still holds every pair within touch:
+    # any disc of i has moved relative to j's discs by at most |dt| + |dR| bound_i since
+    # the list was made (|dR| <= |dc| + |ds| for the rotation), so a pair within touch now
+    # was within touch + that then; ``slack`` covers the round-off of both computations
+    # (64 epsilon of the coordinates' size: 1e-11 in f64 at |x| ~ 1000, 1e-2 in f32)
+    lists = a.cfg[Config.LISTS] != 0
+    entry = -1
+    use = False
+    if lists:
+        for e in ti.static(range(ENTRIES)):
+            if a.nl[i, list_partner(e)] == j:
+                entry = e
+    if entry >= 0:
+        if a.nl[i, list_count(entry)] >= 0:
+            pose = ti.static(a.nr)
+            moved = ti.abs(tu - pose[i, entry, ListPose.TU]) + ti.abs(tv - pose[i, entry, ListPose.TV])
+            moved += (ti.abs(c - pose[i, entry, ListPose.C]) + ti.abs(s - pose[i, entry, ListPose.S])) * b[i, Body.BOUND]
+            size = ti.abs(xi) + ti.abs(zi) + ti.abs(xj) + ti.abs(zj) + b[i, Body.BOUND] + b[j, Body.BOUND] + touch
+            use = touch + moved + 64.0 * a.par[Param.EPS] * size <= pose[i, entry, ListPose.KEEP]
+    if use:
+        fa_prev = -1
+        au0, av0, dau, dav = 0.0, 0.0, 0.0, 0.0
+        base = list_code(entry, 0)
+        for q in range(a.nl[i, list_count(entry)]):
+            fa, ia, fb, ib = unpack_pair(a.nl[i, base + q])
+            if fa != fa_prev:
+                fa_prev = fa
+                au0, av0, dau, dav = face_in_j(fa, k, hwi, hhi, ri, cu, cv, c, s)
+            au = au0 + ia * dau
+            av = av0 + ia * dav
+            perp, along, st, _inv = j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv)
+            off = along - ib * st
+            d2 = perp * perp + off * off
+            if d2 < touch2 and d2 > 0:
+                g, term = pair_term(fb, perp, off, d2, au, av, ri, rj)
+                if g < motion:
+                    near += (motion - g) * term
+                standby += (rch - g) * term
+                gap = ti.min(gap, g)
+    else:
+        # search, keeping the pairs within touch + skin in a (new or reused) list entry
+        skin = 0.0
+        count = -1  # -1: nothing kept
+        if lists:
+            skin = SKIN * ti.min(ri, rj)
+            if entry < 0:
+                entry = a.bi[i, BodyInt.NEXT_ENTRY]
+                a.bi[i, BodyInt.NEXT_ENTRY] = (entry + 1) % ENTRIES
+            if k <= MAX_FACE_DISCS:  # else the indices do not fit the list's codes: always search
+                count = 0
+        keep = touch + skin
+        keep2 = keep * keep
+        grow = rch + skin
+        faces = 4
+        if boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, grow):
+            faces = 0  # the rectangles (which contain the discs) cannot meet this step
+        lim_u = hwj + ri + grow
+        lim_v = hhj + ri + grow
+        for fa in range(faces):
+            lo_a, hi_a = 0, k - 1
+            # i's discs on this face, in j's frame, are (au0, av0) + ia (dau, dav): keep
+            # those inside j's box grown by ri + rch + skin (the exact test is per disc)
+            au0, av0, dau, dav = face_in_j(fa, k, hwi, hhi, ri, cu, cv, c, s)
+            lo_a, hi_a = line_window(au0, dau, lim_u, lo_a, hi_a)
+            if lo_a <= hi_a:
+                lo_a, hi_a = line_window(av0, dav, lim_v, lo_a, hi_a)
+            for ia in range(lo_a, hi_a + 1):
+                au = au0 + ia * dau  # disc of i in j's frame
+                av = av0 + ia * dav
+                if ti.abs(au) > lim_u or ti.abs(av) > lim_v:
+                    continue
+                # j's faces are axis-aligned in its frame (a dynamic loop: unrolled, the
+                # kernels took twice as long to compile, for ~10% of this loop's time)
+                for fb in range(4):
+                    perp, along, st, inv_st = j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv)
+                    if ti.abs(perp) < keep:
+                        lo_b, hi_b = 0, k - 1
+                        if inv_st > 0:
+                            lo_b = ti.max(0, ti.cast(ti.ceil((along - keep) * inv_st), ti.i32))
+                            hi_b = ti.min(k - 1, ti.cast(ti.floor((along + keep) * inv_st), ti.i32))
+                        for ib in range(lo_b, hi_b + 1):
+                            off = along - ib * st
+                            d2 = perp * perp + off * off
+                            if d2 < keep2 and count >= 0:
+                                if count < PAIRS:
+                                    a.nl[i, list_code(entry, count)] = pack_pair(fa, ia, fb, ib)
+                                    count += 1
+                                else:
+                                    count = -1  # too many pairs to keep: search next step
+                            if d2 < touch2 and d2 > 0:
+                                g, term = pair_term(fb, perp, off, d2, au, av, ri, rj)
+                                if g < motion:
+                                    near += (motion - g) * term
+                                standby += (rch - g) * term
+                                gap = ti.min(gap, g)
+        if lists:
+            a.nl[i, list_partner(entry)] = j
+            a.nl[i, list_count(entry)] = count
+            a.nr[i, entry, ListPose.TU] = tu
+            a.nr[i, entry, ListPose.TV] = tv
+            a.nr[i, entry, ListPose.C] = c
+            a.nr[i, entry, ListPose.S] = s
+            a.nr[i, entry, ListPose.KEEP] = keep
+    if gap < rch:
+        sums = near
+        if near[0] <= 0:
+            sums = standby
+        wsum = sums[0]
+        qu = sums[1] / wsum
+        qv = sums[2] / wsum
+        nx = sums[3] * cj - sums[4] * sj
+        nz = sums[3] * sj + sums[4] * cj
+        nn = ti.sqrt(nx * nx + nz * nz)
+        if nn <= 1e-12 * wsum:
+            # symmetric overlap: the disc normals cancel; push along the centre line instead
+            nx = xi - xj
+            nz = zi - zj
+            nn = ti.sqrt(nx * nx + nz * nz)
+            if nn <= 0:
+                nx = 1.0
+                nz = 0.0
+                nn = 1.0
+        insert_contact(a, i, j, xj + qu * cj - qv * sj, zj + qu * sj + qv * cj, nx / nn, nz / nn, gap)
+
+
+@ti.func
+def detect(fx: ti.template(), a: ti.template(), i, size):
+    """Contacts of body i with partners j > i (slots sorted by j), and with the wall."""
+    b = ti.static(a.b)
+    a.bi[i, BodyInt.NCONTACT] = 0
+    if ti.static(fx.collisions):
+        ncells = a.cfg[Config.NCELLS]
+        xi = b[i, Body.X]
+        zi = b[i, Body.Z]
+        home = ti.cast(ti.floor(xi / size), ti.i64)
+        for dc in ti.static(range(-1, 2)):
+            cell = ti.cast((home + dc) & (ncells - 1), ti.i32)
+            for slot in range(a.cells[cell, Cell.START], a.cells[cell + 1, Cell.START]):
+                j = a.bi[slot, BodyInt.SORTED]
+                if j > i:
+                    rch = b[i, Body.REACH] + b[j, Body.REACH]
+                    dx = xi - b[j, Body.X]
+                    dz = zi - b[j, Body.Z]
+                    lim = b[i, Body.BOUND] + b[j, Body.BOUND] + rch
+                    if dx * dx + dz * dz < lim * lim:
+                        narrow(a, i, j, rch, b[i, Body.MOTION] + b[j, Body.MOTION])
+    if ti.static(fx.wall):
+        wall.detect(a, i)
+
+
+@ti.func
+def narrow_stage(fx: ti.template(), a: ti.template()):
+    """The stage: every body's contacts (parallel over bodies in the parallel form)."""
+    size = cell_size(a)
+    for i in range(a.b.shape[0]):
+        detect(fx, a, i, size)

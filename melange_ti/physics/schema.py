@@ -1,0 +1,275 @@
+"""The schema: every array the model keeps, column by column, and the namespaces to index them.
+
+The model's data are a few packed Taichi ndarrays (a struct cannot be an ndarray element in
+Taichi 1.7, and fields would recompile per allocation; packed ndarrays compile once per
+effect set and precision). Each is described here by a :class:`Table`: its columns in order,
+each with a role, units, a description and, for ``bodies``, the 64-byte cache line it lives
+on. From a table come
+
+- its **namespace**, a class of integer constants, so kernels write ``a.b[i, Body.VX]`` and
+  ``a.par[Param.DT]`` (a class attribute compiles to the same constant as a bare integer);
+- the lists the rest of the code derives from the roles: the state a snapshot writes, the
+  constants in ``/icebergs``, the ledgers that the diagnostics sum and the checkpoints keep.
+
+Roles:
+
+``state``     evolves every step; written in every snapshot and checkpoint
+``constant``  fixed per iceberg or per run (``constant`` columns with an ``output`` name are
+              written to ``/icebergs``)
+``cache``     a function of the state kept for speed (cos and sin of the tilt)
+``scratch``   meaningful only inside one step; never written
+``ledger``    cumulative since t = 0 (energy removed by an effect, impulse sums); summed
+              into a diagnostic and kept in checkpoints
+``counter``   an integer count or flag (``contacts`` is a ledger of impulses applied)
+``config``    an integer setting of the run (N, discs per face, ...)
+
+Effects (:mod:`melange_ti.physics.effects`) add their own columns (parameters, per-body
+ledgers, scratch) when they are registered; a new ledger column is then checkpointed and
+written to the diagnostics with no other edit.
+
+Index spaces do not mix: indexing an array with another array's namespace is caught by
+``tests/physics/test_schema.py``, which reads every kernel module and checks that each
+subscript's column comes from the namespace of the array it indexes (Taichi would compile
+``a.cd[s, i, Body.VX]`` silently; distinct Python types cannot survive into a kernel).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from .columns import Acc, Body, BodyInt, Cell, Column, Config, Contact, Counter, ListPose, Param, Scratch, Table
+
+E = "rho_w g w^3"  # energy per unit length into the page (g = rho_w = w = 1)
+LINE_COLUMNS = 8  # 64-byte cache line of f64 columns
+
+
+def _bodies(effect_columns: tuple[Column, ...]) -> Table:
+    """The per-iceberg row, grouped into cache lines by the phases that read it together (at
+    large N the sweeps are bound by memory traffic). Line 2 holds the cold columns and the
+    effects' own; more effect columns than fit open line 3."""
+    line0 = (
+        Column("X", "state", "w", "centre of mass, horizontal (seaward +)", "x"),
+        Column("Z", "state", "w", "centre of mass, vertical (up +)", "z"),
+        Column("VX", "state", "w / sqrt(w/g)", "velocity, horizontal", "vx"),
+        Column("VZ", "state", "w / sqrt(w/g)", "velocity, vertical", "vz"),
+        Column("OM", "state", "rad / sqrt(w/g)", "angular velocity (counter-clockwise +)", "omega"),
+        Column("INV_MASS", "constant", "1 / (rho_w w^2)", "1 / mass, rounded once in the model's precision"),
+        Column("SHIFT_X", "scratch", "w", "correction: push so far this step, x"),
+        Column("SHIFT_Z", "scratch", "w", "correction: push so far this step, z"),
+    )
+    line1 = (
+        Column("COS", "cache", "1", "cos(theta), set at the drift"),
+        Column("SIN", "cache", "1", "sin(theta), set at the drift"),
+        Column("WIDTH", "constant", "w", "width, along the body u axis", "width"),
+        Column("THICK", "constant", "w", "thickness, along the body v axis", "thickness"),
+        Column("RADIUS", "constant", "w", "radius of the collision discs"),
+        Column("BOUND", "constant", "w", "bounding radius, half the diagonal"),
+        Column("REACH", "scratch", "w", "broad phase: how far the body may move this step"),
+        Column("MOTION", "scratch", "w", "broad phase: how far it moves at its current velocities"),
+    )
+    line2 = (
+        Column("TH", "state", "rad", "tilt, counter-clockwise, 0 upright; continuous (not wrapped)", "theta"),
+        Column("MASS", "constant", "rho_w w^2", "mass, density_ratio * width * thickness", "mass"),
+        Column("INERTIA", "constant", "rho_w w^4", "moment of inertia, mass (w^2 + h^2) / 12", "inertia"),
+        *effect_columns,
+        Column("POT_START", "scratch", E, "correction: potential energy before the body's first push"),
+    )
+    # cache lines follow from the position (8 f64 columns a line)
+    cols = [Column(c.name, c.role, c.units, c.doc, c.output, k // LINE_COLUMNS) for k, c in enumerate((*line0, *line1, *line2))]
+    width = -(-len(cols) // LINE_COLUMNS) * LINE_COLUMNS
+    return Table(
+        "bodies",
+        "b",
+        "real",
+        "(N, Body.SIZE)",
+        "one row per iceberg: state, constants, cached tilt, per-step scratch, per-body ledgers",
+        tuple(cols),
+        Body,
+        width,
+    )
+
+
+BODY_INTS = Table(
+    "body_ints",
+    "bi",
+    "i32",
+    "(N, BodyInt.SIZE)",
+    "per-iceberg integers of one step",
+    (
+        Column("CELL", "scratch", "1", "broad phase: the cell of the body's centre"),
+        Column("NCONTACT", "scratch", "1", "contacts of the body with partners j > i (slots used)"),
+        Column("WALL_ON", "scratch", "1", "1 if the body has a wall contact this step"),
+        Column("SORTED", "scratch", "1", "broad phase: bodies in cell order (indexed by slot, not body)"),
+        Column("PUSHED", "scratch", "1", "correction: the last sweep that moved the body (-1: none)"),
+        Column("NEXT_ENTRY", "scratch", "1", "candidate lists: the entry a new partner takes (round robin)"),
+    ),
+    BodyInt,
+)
+
+CONTACTS = Table(
+    "contacts",
+    "cd",
+    "real",
+    "(slots, N, Contact.SIZE)",
+    "body i's contacts with partners j > i at [s, i], sorted by j (partner in cp[s, i]); slot-major, "
+    "so a sweep over the bodies reads them as dense streams",
+    (
+        Column("PX", "scratch", "w", "contact point, x"),
+        Column("PZ", "scratch", "w", "contact point, z"),
+        Column("NX", "scratch", "1", "unit normal from j to i, x"),
+        Column("NZ", "scratch", "1", "unit normal from j to i, z"),
+        Column("GAP", "scratch", "w", "gap when found; the correction replaces it by the predicted end-of-step gap"),
+    ),
+    Contact,
+)
+
+LIST_POSES = Table(
+    "list_poses",
+    "nr",
+    "real",
+    "(N, ENTRIES, ListPose.SIZE)",
+    "the pose of the pair (i, j) when i's candidate list for j was made",
+    (
+        Column("TU", "scratch", "w", "i's centre in j's frame, u"),
+        Column("TV", "scratch", "w", "i's centre in j's frame, v"),
+        Column("C", "scratch", "1", "cos of j's tilt relative to i"),
+        Column("S", "scratch", "1", "sin of j's tilt relative to i"),
+        Column("KEEP", "scratch", "w", "the distance within which disc pairs were kept (touch + skin)"),
+    ),
+    ListPose,
+)
+
+CELLS = Table(
+    "cells",
+    "cells",
+    "i32",
+    "(ncells + 1, Cell.SIZE)",
+    "counting-sort cell list of the broad phase",
+    (
+        Column("COUNT", "scratch", "1", "bodies in the cell"),
+        Column("START", "scratch", "1", "first slot of the cell in BodyInt.SORTED"),
+        Column("FILL", "scratch", "1", "next free slot while filling"),
+    ),
+    Cell,
+)
+
+SCRATCH = Table(
+    "scratch",
+    "scr",
+    "real",
+    "(Scratch.SIZE,)",
+    "run-wide reals of one step",
+    (
+        Column("SPEED_MAX", "scratch", "w / sqrt(w/g)", "fastest point of any body"),
+        Column("REACH_MAX", "scratch", "w", "largest reach of any body"),
+    ),
+    Scratch,
+)
+
+CONFIG = Table(
+    "config",
+    "cfg",
+    "i64",
+    "(Config.SIZE,)",
+    "integer settings of the run, fixed when the model is built",
+    (
+        Column("N", "config", "1", "icebergs"),
+        Column("K", "config", "1", "discs per face (contacts.discs / 4)"),
+        Column("SLOTS", "config", "1", "contact slots per iceberg (contacts.max_partners)"),
+        Column("PASSES", "config", "1", "impulse passes per step (contacts.contact_passes)"),
+        Column("NCELLS", "config", "1", "cells of the broad phase (a power of 2)"),
+        Column("DISCS", "config", "1", "discs per iceberg"),
+        Column("LISTS", "config", "1", "1 if the narrow phase keeps candidate lists"),
+    ),
+    Config,
+)
+
+COUNTERS = Table(
+    "counters",
+    "cnt",
+    "i64",
+    "(Counter.SIZE,)",
+    "integer counters and flags",
+    (
+        Column("CONTACTS", "counter", "1", "impulses applied since t = 0", "contacts"),
+        Column("OVERFLOW", "counter", "1", "1 if a body had more partners than slots"),
+        Column("AGAIN", "counter", "1", "after an impulse pass: 2 detect again, 1 pass again, 0 done"),
+    ),
+    Counter,
+)
+
+ACCUMULATORS = Table(
+    "accumulators",
+    "acc",
+    "f64",
+    "(Acc.SIZE,)",
+    "run-wide cumulative sums since t = 0, in f64 whatever the precision",
+    (
+        Column("COLLISION", "ledger", E, "energy removed by impulses, 0.5 (1 - e^2) vn^2 / K each", "collision_dissipated"),
+        Column(
+            "CORRECTION",
+            "ledger",
+            E,
+            "energy removed by overlap corrections (minus the potential energy they add)",
+            "correction_work",
+        ),
+        Column("WALL_IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of impulses from the wall", "wall_impulse"),
+        Column("IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of all impulses", "impulse_sum"),
+    ),
+    Acc,
+)
+
+BASE_PARAMS = (
+    Column("DT", "constant", "sqrt(w/g)", "time step", source="time.dt"),
+    Column("RESTITUTION", "constant", "1", "coefficient of restitution", source="physics.restitution"),
+    Column("WATER", "constant", "w", "sea surface height", source="physics.water_level"),
+    Column("BOUND_MAX", "constant", "w", "largest bounding radius"),
+    Column("EPS", "constant", "1", "machine epsilon of the model's precision"),
+)
+
+
+def _params(effect_params: tuple[Column, ...]) -> Table:
+    return Table("params", "par", "real", "(Param.SIZE,)", "run-time parameters", (*BASE_PARAMS, *effect_params), Param)
+
+
+class Arrays(NamedTuple):
+    """The model's ndarrays, in the order every kernel takes them (see :class:`Table`).
+
+    ``nl`` (N, ENTRIES * (2 + PAIRS), i32): candidate lists; see :mod:`.narrow`."""
+
+    b: object
+    bi: object
+    cd: object
+    cp: object
+    nl: object
+    nr: object
+    cells: object
+    par: object
+    scr: object
+    cfg: object
+    cnt: object
+    acc: object
+
+
+def _build():
+    from .effects import REGISTRY
+
+    body_cols = tuple(c for e in REGISTRY for c in e.body_columns)
+    param_cols = tuple(c for e in REGISTRY for c in e.params)
+    return _bodies(body_cols), _params(param_cols)
+
+
+BODIES, PARAMS = _build()
+TABLES = (BODIES, BODY_INTS, CONTACTS, LIST_POSES, CELLS, PARAMS, SCRATCH, CONFIG, COUNTERS, ACCUMULATORS)
+
+NAMESPACES = {t.namespace.__name__: t for t in TABLES}
+
+# What the rest of the code derives from the roles.
+STATE = tuple(BODIES.outputs("state"))  # x, z, vx, vz, omega, theta in row order
+STATE_NAMES = ("x", "z", "theta", "vx", "vz", "omega")  # the file's order (SPEC section 5)
+assert sorted(STATE) == sorted(STATE_NAMES)
+CONSTANTS = tuple(BODIES.outputs("constant"))  # /icebergs: width, thickness, mass, inertia
+BODY_LEDGERS = BODIES.outputs("ledger")  # per-body ledgers, summed into a diagnostic
+ACC_LEDGERS = ACCUMULATORS.outputs("ledger")
+# energy ledgers close the budget: E(0) - E(t) = their sum
+ENERGY_LEDGERS = tuple(c.output for t in (BODIES, ACCUMULATORS) for c in t.with_role("ledger") if c.units == E)

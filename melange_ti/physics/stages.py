@@ -1,0 +1,227 @@
+"""One time step as a list of named stages, and the kernels that run it (Taichi).
+
+The step is written once, as data (:data:`STEP`)::
+
+    forces                                   kick: body forces, then damping   (forces.py)
+    rounds, at most MAX_DETECT, if contacts:
+        broad     (first round, and again     reach and cell list              (broad.py)
+        narrow     when a body outran it)     contacts from the discs, wall    (narrow.py)
+        impulses                              sequential impulse pass          (impulses.py)
+        check                                 again? Counter.AGAIN             (impulses.py)
+    drift                                    x += dt v, theta += dt omega      (forces.py)
+    correction                   if contacts  sequential overlap correction    (correction.py)
+
+and run in one of two forms that give the same bits:
+
+- **serial** (:func:`steps_serial`): many whole steps in one kernel call, every loop serial
+  (no launch cost: the form for small N on the CPU);
+- **parallel**: each stage's parts launched as kernels (:func:`run_part`), their outer loop
+  over bodies parallel, except the parts whose order is the physics (``sequential``: the
+  impulse pass, the correction, the cell scan). :class:`melange_ti.model.Model` walks
+  :data:`STEP` and can time every stage (:meth:`Model.profile`, like Box2D's profile).
+
+Kernels take the model's ndarrays (:class:`.schema.Arrays`) and the frozen effect set ``fx``
+as a template, so they compile once per effect set and precision and serve every model of
+any size; parameters such as ``dt`` are read at run time from ``par``. Every term is guarded
+by ``ti.static``: an effect the scene does not name is not compiled, and a part it does not
+need is not launched.
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import taichi as ti
+
+from . import broad, correction, forces, impulses, narrow
+from .schema import BODIES, Arrays, Counter
+
+MAX_DETECT = 16  # rounds of (detection,) impulse pass and check per step
+
+
+def always(fx) -> bool:
+    return True
+
+
+def contacts(fx) -> bool:
+    return bool(fx.collisions or fx.wall)
+
+
+def collisions(fx) -> bool:
+    return bool(fx.collisions)
+
+
+@dataclass(frozen=True)
+class Part:
+    """One kernel of the parallel form: ``func(fx, a)``; ``sequential`` parts run on one
+    thread (their order is the physics); ``needs(fx)``: launched only when true."""
+
+    func: Callable
+    sequential: bool = False
+    needs: Callable = always
+
+
+@dataclass(frozen=True)
+class Stage:
+    """A named stage: ``serial(fx, a)`` is the whole stage with serial loops (inside the
+    fused kernel); ``parallel`` its parts as kernels; ``needs(fx)``: run only when true."""
+
+    name: str
+    serial: Callable
+    parallel: tuple[Part, ...]
+    needs: Callable = always
+    kind: str = "stage"
+
+
+@dataclass(frozen=True)
+class Rounds:
+    """Stages repeated until the last of ``solve`` (the check) says done (``Counter.AGAIN``
+    0), at most ``limit`` times: ``detect`` runs in the first round and again after a round
+    whose check found a body faster than the reach it was searched with (``AGAIN`` 2)."""
+
+    detect: tuple[Stage, ...]
+    solve: tuple[Stage, ...]
+    limit: int
+    needs: Callable = always
+    kind: str = "rounds"
+
+
+@ti.func
+def forces_stage(fx: ti.template(), a: ti.template()):
+    for i in range(a.b.shape[0]):
+        forces.kick(fx, a, i)
+
+
+@ti.func
+def drift_stage(fx: ti.template(), a: ti.template()):
+    for i in range(a.b.shape[0]):
+        forces.drift(a, i)
+
+
+FORCES = Stage("forces", forces_stage, (Part(forces_stage),))
+BROAD = Stage(
+    "broad",
+    broad.broad_serial,
+    (
+        Part(broad.speed_all),
+        Part(broad.reach_all),
+        Part(broad.bin_count, needs=collisions),
+        Part(broad.bin_scan, sequential=True, needs=collisions),
+        Part(broad.bin_fill, needs=collisions),
+    ),
+)
+NARROW = Stage("narrow", narrow.narrow_stage, (Part(narrow.narrow_stage),))
+IMPULSES = Stage("impulses", impulses.impulse_pass, (Part(impulses.impulse_pass, sequential=True),))
+CHECK = Stage("check", impulses.check, (Part(impulses.check),))
+DRIFT = Stage("drift", drift_stage, (Part(drift_stage),))
+CORRECTION = Stage("correction", correction.correction_pass, (Part(correction.correction_pass, sequential=True),), needs=contacts)
+
+STEP = (FORCES, Rounds((BROAD, NARROW), (IMPULSES, CHECK), MAX_DETECT, needs=contacts), DRIFT, CORRECTION)
+STAGES = (FORCES, BROAD, NARROW, IMPULSES, CHECK, DRIFT, CORRECTION)
+STAGE_NAMES = tuple(s.name for s in STAGES)
+
+
+# ---------------------------------------------------------------- the serial form
+@ti.func
+def one_step(fx: ti.template(), a: ti.template()):
+    """:data:`STEP` with serial loops (``Body.COS``, ``Body.SIN`` valid on entry)."""
+    for part in ti.static(STEP):
+        if ti.static(part.needs(fx)):
+            if ti.static(part.kind == "stage"):
+                part.serial(fx, a)
+            else:
+                redetect = 1
+                for _round in range(part.limit):
+                    if redetect:
+                        for st in ti.static(part.detect):
+                            st.serial(fx, a)
+                    for st in ti.static(part.solve):
+                        st.serial(fx, a)
+                    again = a.cnt[Counter.AGAIN]
+                    redetect = ti.cast(again == 2, ti.i32)
+                    if again == 0:
+                        break
+
+
+arr = ti.types.ndarray()
+
+
+@ti.kernel
+def steps_serial(
+    fx: ti.template(),
+    steps: ti.i32,
+    b: arr,
+    bi: arr,
+    cd: arr,
+    cp: arr,
+    nl: arr,
+    nr: arr,
+    cells: arr,
+    par: arr,
+    scr: arr,
+    cfg: arr,
+    cnt: arr,
+    acc: arr,
+):
+    """``steps`` whole steps in one call, every loop serial (small N: no launch costs)."""
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc))
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        for i in range(b.shape[0]):
+            forces.orient(a, i)  # the state may have been set from the host since the last call
+        for _step in range(steps):
+            one_step(fx, a)
+
+
+# ---------------------------------------------------------------- the parallel form
+@ti.kernel
+def run_part(
+    fx: ti.template(),
+    part: ti.template(),
+    b: arr,
+    bi: arr,
+    cd: arr,
+    cp: arr,
+    nl: arr,
+    nr: arr,
+    cells: arr,
+    par: arr,
+    scr: arr,
+    cfg: arr,
+    cnt: arr,
+    acc: arr,
+):
+    """One part of a stage; its outer loop over bodies is parallel unless it is sequential."""
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc))
+    if ti.static(part.sequential):
+        ti.loop_config(serialize=True)
+        for _ in range(1):
+            part.func(fx, a)
+    else:
+        part.func(fx, a)
+
+
+# ---------------------------------------------------------------- host-side helpers
+@ti.kernel
+def orient_all(b: arr):
+    a = ti.static(Arrays(b, None, None, None, None, None, None, None, None, None, None, None))
+    for i in range(b.shape[0]):
+        forces.orient(a, i)
+
+
+# What :func:`sample_all` writes per body, in order: the state and the per-body ledgers
+# (their output names, from the schema), then the kinetic and potential energy.
+_SAMPLED = [(c.output, k) for k, c in enumerate(BODIES.columns) if c.output and c.role in ("state", "ledger")]
+SAMPLED_COLUMNS = tuple(k for _, k in _SAMPLED)
+SAMPLE_NAMES = (*(name for name, _ in _SAMPLED), "kinetic", "potential")
+
+
+@ti.kernel
+def sample_all(fx: ti.template(), b: arr, par: arr, out: arr):
+    """Per body, the :data:`SAMPLE_NAMES` columns of ``out`` (one transfer for the host)."""
+    a = ti.static(Arrays(b, None, None, None, None, None, None, par, None, None, None, None))
+    for i in range(b.shape[0]):
+        forces.orient(a, i)
+        for k, col in ti.static(enumerate(SAMPLED_COLUMNS)):
+            out[i, k] = b[i, col]
+        out[i, ti.static(len(SAMPLED_COLUMNS))] = forces.kinetic_energy(a, i)
+        out[i, ti.static(len(SAMPLED_COLUMNS) + 1)] = forces.potential_energy(fx, a, i)

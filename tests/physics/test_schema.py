@@ -1,0 +1,157 @@
+"""The schema (melange_ti.physics.schema): every array indexed through its own namespace.
+
+Taichi compiles ``a.cd[s, i, Body.VX]`` without complaint (both are integers), so this test
+reads every kernel module and checks that each subscript whose column comes from a schema
+namespace indexes the array that namespace describes, and that no schema array is indexed
+by a bare integer column. A checker test on a deliberately wrong snippet shows that the
+lint catches what it is for.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+from melange_ti.physics import schema
+from melange_ti.physics.columns import ROLES
+
+PHYSICS = Path(schema.__file__).resolve().parent
+ARRAYS = {t.array: t for t in schema.TABLES}  # "b" -> BODIES, ...
+NAMESPACES = {t.namespace.__name__: t for t in schema.TABLES}  # "Body" -> BODIES, ...
+
+
+def _array_name(node: ast.AST, aliases: dict[str, str]) -> str | None:
+    """``a.b`` -> "b"; a local alias ``b = ti.static(a.b)`` -> "b"; else None."""
+    if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "a":
+        return node.attr
+    if isinstance(node, ast.Name):
+        return aliases.get(node.id)
+    return None
+
+
+def _aliases(func: ast.FunctionDef) -> dict[str, str]:
+    out = {}
+    for node in ast.walk(func):
+        if isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name):
+            v = node.value
+            if isinstance(v, ast.Call) and getattr(v.func, "attr", None) == "static" and v.args:
+                name = _array_name(v.args[0], {})
+                if name is not None:
+                    out[node.targets[0].id] = name
+    # kernel parameters are the arrays themselves (b: arr, par: arr, ...)
+    for arg in func.args.args:
+        if arg.arg in ARRAYS and arg.arg not in out:
+            out[arg.arg] = arg.arg
+    return out
+
+
+def check_source(text: str, where: str = "<source>") -> list[str]:
+    """Problems in ``text``: a namespace column used on another array, or a schema array
+    indexed by a bare integer column."""
+    problems = []
+    tree = ast.parse(text)
+    for func in ast.walk(tree):
+        if not isinstance(func, ast.FunctionDef):
+            continue
+        aliases = _aliases(func)
+        for node in ast.walk(func):
+            if not isinstance(node, ast.Subscript):
+                continue
+            array = _array_name(node.value, aliases)
+            if array is None or array not in ARRAYS:
+                continue
+            index = node.slice.elts if isinstance(node.slice, ast.Tuple) else [node.slice]
+            last = index[-1]
+            line = f"{where}:{node.lineno}"
+            if isinstance(last, ast.Attribute) and isinstance(last.value, ast.Name) and last.value.id in NAMESPACES:
+                table = NAMESPACES[last.value.id]
+                if table.array != array:
+                    problems.append(
+                        f"{line}: {array}[..., {last.value.id}.{last.attr}] indexes {array} with {table.name}'s columns"
+                    )
+                elif not hasattr(table.namespace, last.attr):
+                    problems.append(f"{line}: {last.value.id}.{last.attr} is not a column")
+            elif isinstance(last, ast.Constant) and isinstance(last.value, int) and ARRAYS[array].columns:
+                if array in ("cp", "nl"):
+                    continue
+                problems.append(f"{line}: {array}[..., {last.value}] uses a bare integer column")
+            for other in index[:-1]:  # a namespace column in a leading (row) position
+                if isinstance(other, ast.Attribute) and isinstance(other.value, ast.Name) and other.value.id in NAMESPACES:
+                    problems.append(f"{line}: {other.value.id}.{other.attr} used as a row index of {array}")
+    return problems
+
+
+def _modules():
+    return sorted(p for p in PHYSICS.rglob("*.py") if p.name not in ("columns.py", "schema.py"))
+
+
+def test_lint_catches_a_wrong_array_index():
+    wrong = "def f(a, i, s):\n    return a.cd[s, i, Body.VX] + a.b[i, 3] + a.par[Config.N]\n"
+    problems = check_source(wrong)
+    assert len(problems) == 3, problems
+    right = "def f(a, i, s):\n    b = ti.static(a.b)\n    return a.cd[s, i, Contact.NX] + b[i, Body.VX] + a.par[Param.DT]\n"
+    assert check_source(right) == []
+
+
+def test_kernel_modules_index_arrays_through_their_namespaces():
+    modules = _modules()
+    assert len(modules) >= 10, "the lint must see the step's modules"
+    problems = [p for m in modules for p in check_source(m.read_text(), str(m.relative_to(PHYSICS)))]
+    assert not problems, "\n".join(problems)
+
+
+def test_lint_sees_the_kernels():
+    """Guard against a vacuous lint: it recognises hundreds of namespaced subscripts."""
+    seen = 0
+    for m in _modules():
+        tree = ast.parse(m.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Subscript):
+                s = node.slice.elts[-1] if isinstance(node.slice, ast.Tuple) else node.slice
+                if isinstance(s, ast.Attribute) and isinstance(s.value, ast.Name) and s.value.id in NAMESPACES:
+                    seen += 1
+    assert seen > 200, seen
+
+
+@pytest.mark.parametrize("table", schema.TABLES, ids=lambda t: t.name)
+def test_every_column_is_described(table):
+    for c in table.columns:
+        assert c.role in ROLES and c.units and c.doc, c
+    assert table.size >= len(table.columns)
+
+
+def test_body_row_fits_cache_lines():
+    """The hot columns (what the impulse pass and the correction touch) share line 0; the
+    row is a whole number of 64-byte lines in f64."""
+    b = schema.BODIES
+    assert b.size % 8 == 0
+    hot = ("X", "Z", "VX", "VZ", "OM", "INV_MASS", "SHIFT_X", "SHIFT_Z")
+    assert {b.columns[b.index(n)].line for n in hot} == {0}
+    assert all(c.line == k // 8 for k, c in enumerate(b.columns))
+
+
+def test_derived_lists():
+    """State, constants and ledgers come from the roles (SPEC section 5's names)."""
+    assert set(schema.STATE) == {"x", "z", "theta", "vx", "vz", "omega"}
+    assert schema.CONSTANTS == ("width", "thickness", "mass", "inertia")
+    assert "drag_dissipated" in schema.BODY_LEDGERS
+    assert set(schema.ENERGY_LEDGERS) == {"drag_dissipated", "collision_dissipated", "correction_work"}
+    from melange_ti import diagnostics
+
+    assert set(schema.ENERGY_LEDGERS) <= set(diagnostics.NAMES)
+
+
+def test_parameters_come_from_scene_keys():
+    """Every parameter slot but the two derived ones names the scene key it is filled from,
+    and that key exists."""
+    from melange_ti import scene
+
+    sc = scene.load(None)
+    for c in schema.PARAMS.columns:
+        if c.name in ("BOUND_MAX", "EPS"):
+            assert c.source is None
+            continue
+        section, key = c.source.split(".")
+        assert hasattr(getattr(sc, section), key), c
