@@ -1,4 +1,4 @@
-"""Command line: argument parsing and error reporting only (SPEC section 4).
+"""Command line: argument parsing and error reporting only (docs/cli.md).
 
 Every expected failure prints one line ``melange-ti: error: ...`` and exits with status 2
 (bad input) or 3 (a run that stopped on a numerical guard); never a traceback.
@@ -26,26 +26,35 @@ def _common_run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--arch", choices=("cpu", "gpu"), default="cpu", help="Taichi backend (gpu: untested where none is present)")
 
 
+SCENE_HELP = "scene TOML file (default: the bundled paper scene; keys: docs/scenes.md)"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="melange-ti", description="Simulate capsizing icebergs and ice-melange expansion (Guttenberg et al. 2011).")
+    p = _Parser(
+        prog="melange-ti",
+        description="Simulate capsizing icebergs and ice-melange expansion (Guttenberg et al. 2011). "
+        "Units: lengths in iceberg widths w, time in sqrt(w/g). Docs: docs/ in the repository.",
+    )
     p.add_argument("--version", action="version", version=f"melange-ti {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    r = sub.add_parser("run", help="run one scene into an HDF5 file")
-    r.add_argument("scene", nargs="?", help="scene TOML (default: the bundled paper scene)")
-    r.add_argument("--out", help="output HDF5 file (default: NAME_seedSEED.h5)")
+    r = sub.add_parser("run", help="run one scene into an HDF5 (netCDF-4) file", description="Run one scene into a run file.")
+    r.add_argument("scene", nargs="?", help=SCENE_HELP)
+    r.add_argument("--out", help="output file (default: NAME_seedSEED.h5, plus the --set values)")
     r.add_argument("--overwrite", action="store_true", help="replace an existing output file")
-    r.add_argument("--resume", action="store_true", help="continue an interrupted run from its checkpoint")
-    r.add_argument("--threads", type=int, help="CPU threads (results do not depend on it)")
+    r.add_argument(
+        "--resume", action="store_true", help="continue an interrupted run from its checkpoint, with the scene stored in --out"
+    )
+    r.add_argument("--threads", type=int, help="CPU threads (default: all; results do not depend on it)")
     r.add_argument("--mode", choices=("auto", "serial", "parallel"), default="auto", help=argparse.SUPPRESS)
     _common_run_args(r)
 
-    c = sub.add_parser("check", help="validate a scene without running it")
-    c.add_argument("scene")
-    c.add_argument("--set", action="append", metavar="KEY=VALUE", default=[])
+    c = sub.add_parser("check", help="validate a scene without running it", description="Validate a scene; print what would run.")
+    c.add_argument("scene", nargs="?", help=SCENE_HELP)
+    c.add_argument("--set", action="append", metavar="KEY=VALUE", default=[], help="override a scene key")
 
     e = sub.add_parser("ensemble", help="seeds x parameter values on a Dask cluster, one file per run")
-    e.add_argument("scene", nargs="?")
+    e.add_argument("scene", nargs="?", help=SCENE_HELP)
     e.add_argument("--seeds", type=int, required=True, help="run seeds 1..K")
     e.add_argument("--out", required=True, help="output directory")
     e.add_argument("--workers", type=int, help="local worker processes (default: CPU count)")
@@ -55,32 +64,77 @@ def build_parser() -> argparse.ArgumentParser:
     pl = sub.add_parser("plot", help="the paper's figures and the energy budget from run files")
     pl.add_argument("runs", nargs="+")
     pl.add_argument("--out", required=True, help="output directory for PNG/PDF files")
-    pl.add_argument("--times", help="comma-separated times for the snapshot and position figures")
-    pl.add_argument("--width-m", type=float, default=70.0, help="iceberg width in metres for the physical axes")
+    pl.add_argument("--times", help="comma-separated times for the snapshot and position figures (default: spread over the run)")
+    pl.add_argument(
+        "--width-m", type=float, help="iceberg width in metres for the physical axes (default: the run's scene.width_m)"
+    )
 
     rd = sub.add_parser("render", help="frames (PNG) and an MP4 movie of a run, headless")
     rd.add_argument("run")
     rd.add_argument("--out", required=True, help="FILE.mp4 or a directory for PNG frames")
+    rd.add_argument("--overwrite", action="store_true", help="replace an existing movie or frames")
     rd.add_argument("--discs", action="store_true", help="draw the collision discs")
-    rd.add_argument("--every", type=int, default=1, help="use every k-th snapshot")
-    rd.add_argument("--fps", type=int, default=20)
+    rd.add_argument("--every", type=int, default=1, help="use every k-th snapshot (default 1)")
+    rd.add_argument("--fps", type=int, default=20, help="frames per second of the movie (default 20)")
+    rd.add_argument("--width-m", type=float, help="iceberg width in metres for the time label (default: the run's scene.width_m)")
 
     b = sub.add_parser("bench", help="benchmarks: scaling, accuracy, effects, peers")
     b.add_argument("which", choices=("scaling", "accuracy", "effects", "peers"))
-    b.add_argument("--out", default="benchmarks/results", help="directory for CSV and PNG results")
+    b.add_argument("--out", default="benchmarks/results", help="directory for CSV and PNG results (default: benchmarks/results)")
+    b.add_argument("--overwrite", action="store_true", help="replace results already in --out")
     b.add_argument("--quick", action="store_true", help="a tiny smoke run")
     return p
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"
 
 
 def _cmd_check(args) -> int:
     from . import scene
 
     sc = scene.load(args.scene, scene.parse_overrides(args.set))
+    name = args.scene or "paper scene (bundled)"
     print(
-        f"{args.scene}: ok ({sc.icebergs().count} icebergs, effects {', '.join(sc.effects.names()) or 'none'}, "
-        f"{sc.time.steps} steps of dt = {sc.time.dt})"
+        f"{name}: ok ({_plural(sc.icebergs().count, 'iceberg')}, effects {', '.join(sc.effects.names()) or 'none'}, "
+        f"{_plural(sc.time.steps, 'step')} of dt = {sc.time.dt:g})"
     )
+    for note in sc.notes():
+        print(f"note: {note}")
     return 0
+
+
+def default_out(sc, overrides: list[tuple[str, object]]) -> Path:
+    """``NAME_seedSEED.h5``, with the --set values (other than the seed) in the name."""
+    import re
+
+    extra = "".join(f"_{k.split('.')[-1]}={v}" for k, v in overrides if k != "time.seed")
+    extra = re.sub(r"[^A-Za-z0-9.=+_-]+", "-", extra)[:80]
+    return Path(f"{sc.name}_seed{sc.time.seed}{extra}.h5")
+
+
+def _resume_scene(args, overrides):
+    """With --resume the run file's own scene; SCENE and --set, if given, must match it."""
+    from . import scene
+    from .io.hdf5 import read_run, stored_scene
+
+    if not args.out:
+        raise scene.SceneError("--resume: give --out RUN.h5, the file to continue")
+    out = Path(args.out)
+    if not out.exists():
+        from .errors import RunError
+
+        raise RunError(f"--resume: {out} does not exist")
+    stored = stored_scene(out, read_run(out))
+    if args.scene is not None or overrides:
+        given = scene.load(args.scene, overrides)
+        if given.to_toml() != stored.to_toml():
+            from .errors import RunError
+
+            raise RunError(
+                f"--resume: {out} was made by another scene than the one given; leave SCENE and --set out to use its own"
+            )
+    return stored
 
 
 def _cmd_run(args) -> int:
@@ -89,9 +143,13 @@ def _cmd_run(args) -> int:
 
     if args.threads is not None and args.threads < 1:
         raise scene.SceneError(f"--threads = {args.threads}: must be >= 1")
-    sc = scene.load(args.scene, scene.parse_overrides(args.set))
-    out = Path(args.out) if args.out else Path(f"{sc.name}_seed{sc.time.seed}.h5")
-    sim = Simulation(sc, out, overwrite=args.overwrite, resume=args.resume, arch=args.arch, mode=args.mode)
+    overrides = scene.parse_overrides(args.set)
+    sc = _resume_scene(args, overrides) if args.resume else scene.load(args.scene, overrides)
+    out = Path(args.out) if args.out else default_out(sc, overrides)
+    history = "melange-ti " + " ".join(sys.argv[1:])
+    sim = Simulation(sc, out, overwrite=args.overwrite, resume=args.resume, arch=args.arch, mode=args.mode, history=history)
+    for note in sc.notes():
+        print(f"note: {note}")
     runtime.init(args.arch, args.threads, sc.precision)
     summary = sim.run()
     for line in summary.lines():

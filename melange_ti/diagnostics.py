@@ -1,5 +1,5 @@
 """Diagnostics: the scalar time series of a run (:data:`FIELDS`), and pure numpy functions
-of the state (SPEC sections 1 and 5)."""
+of the state (docs/model.md, docs/output.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``melange-ti ensemble``: seeds x swept parameter values on a Dask cluster (SPEC section 4).
+"""``melange-ti ensemble``: seeds x swept parameter values on a Dask cluster (docs/cli.md).
 
 Plan, validate, then run:
 

@@ -2,7 +2,7 @@
 
 Independent of the Taichi kernels (:mod:`melange_ti.physics`), and shared by the renderer,
 the pymunk peer (:mod:`melange_ti.bench.peers`) and the tests, which compare the kernels
-against these formulas. Units: widths, g = rho_w = 1 (SPEC section 1).
+against these formulas. Units: widths, g = rho_w = 1 (docs/model.md).
 """
 
 from __future__ import annotations
@@ -113,7 +113,7 @@ def submerged_moments(z, theta, half_width, half_thickness, water_level=0.0):
 
 
 def potential_energy(z, theta, width, thickness, density_ratio, water_level=0.0):
-    """``U = m g (z - wl) - rho_w g int_sub (z - wl) dA`` per iceberg (SPEC section 2)."""
+    """``U = m g (z - wl) - rho_w g int_sub (z - wl) dA`` per iceberg (docs/model.md)."""
     z = np.asarray(z, dtype=np.float64)
     mass = density_ratio * np.asarray(width) * np.asarray(thickness)
     a, _, sz = submerged_moments(z, theta, 0.5 * np.asarray(width), 0.5 * np.asarray(thickness), water_level)

@@ -12,6 +12,27 @@ from .errors import ArchError
 _current: tuple | None = None
 
 
+def _check_gpu() -> None:
+    """Refuse ``--arch gpu`` in one line where no GPU backend works. Taichi's own attempt can
+    kill the process (``libcuda.so`` missing, then a segmentation fault in the Vulkan
+    probe), so a child process tries first."""
+    import subprocess
+    import sys
+
+    probe = "import taichi as ti; ti.init(arch=ti.gpu, log_level=ti.ERROR); print(ti.lang.impl.current_cfg().arch)"
+    try:
+        p = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise ArchError(f"--arch gpu: could not probe for a GPU ({exc.__class__.__name__}); use --arch cpu") from None
+    arch = p.stdout.strip().splitlines()[-1].split(".")[-1] if p.returncode == 0 and p.stdout.strip() else ""
+    if p.returncode != 0:
+        raise ArchError(
+            f"--arch gpu: no usable GPU on this machine (Taichi's GPU start-up failed, status {p.returncode}); use --arch cpu"
+        )
+    if arch in ("x64", "arm64", ""):
+        raise ArchError("--arch gpu: no GPU backend is available on this machine (Taichi fell back to the CPU); use --arch cpu")
+
+
 def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", debug: bool = False) -> str:
     """Initialise Taichi for ``arch`` ("cpu" or "gpu") and return the backend's name.
 
@@ -33,6 +54,8 @@ def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", 
         kwargs["cpu_max_num_threads"] = int(threads)
     if arch not in ("cpu", "gpu"):
         raise ArchError(f"--arch {arch!r}: must be cpu or gpu")
+    if arch == "gpu":
+        _check_gpu()
     with contextlib.redirect_stdout(io.StringIO()):  # ti.init prints its backend on stdout
         ti.init(arch=ti.cpu if arch == "cpu" else ti.gpu, **kwargs)
     if arch == "gpu":

@@ -36,9 +36,10 @@ class RunSummary:
     time: float
     capsized_fraction: float
     leading_edge: float
-    energy_released: float
-    dissipated: float
-    energy_residual: float
+    energy_released: float  # potential energy released, E_p(0) - E_p(t)
+    energy_lost: float  # mechanical energy lost, E(0) - E(t), E = E_k + E_p
+    dissipated: float  # what the ledgers booked (drag, collisions, corrections)
+    energy_residual: float  # energy_lost - dissipated: the integrator's error
 
     def lines(self) -> list[str]:
         rel = self.energy_residual / self.energy_released if self.energy_released else float("nan")
@@ -46,10 +47,17 @@ class RunSummary:
             f"simulated t = {self.time:g} in {self.steps} steps, {self.wall_seconds:.1f} s wall, "
             f"{self.steps_per_second:,.0f} steps/s",
             f"capsized fraction {self.capsized_fraction:.3f}, leading edge {self.leading_edge:.3f} widths",
-            f"energy budget: released {self.energy_released:.6g}, dissipated {self.dissipated:.6g}, "
-            f"residual {self.energy_residual:.3g} ({rel:.2%} of released)",
+            f"energy: released (potential, E_p(0) - E_p(t)) {self.energy_released:.6g}; lost (E(0) - E(t)) "
+            f"{self.energy_lost:.6g} = dissipated {self.dissipated:.6g} + residual {self.energy_residual:.3g} "
+            f"({rel:.2%} of released)",
             f"output: {self.path}",
         ]
+
+
+def _utc_now() -> str:
+    import datetime
+
+    return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 class _DeferredInterrupt:
@@ -226,6 +234,7 @@ class Checkpoints:
             **self.diagnostics.counters.save(),
             "x0_max": sim.x0_max,
             "e0": sim.e0,
+            "p0": sim.p0,
         }
         try:
             checkpoint.save(sim.ckpt, data)
@@ -254,8 +263,10 @@ class Simulation:
         progress: bool | None = None,
         mode: str = "auto",
         on_event: Callable[[int], None] | None = None,
+        history: str | None = None,
     ):
         self.scene = scene
+        self.history = history or f"created by melange_ti {__version__} (Python API)"
         self.out = Path(out)
         self.ckpt = checkpoint.checkpoint_path(self.out)
         self.overwrite = overwrite
@@ -299,12 +310,18 @@ class Simulation:
 
         scene = self.scene
         dtype = np.float32 if scene.precision == "f32" else np.float64
+        from . import runtime
+
+        runtime.init(self.arch, None, scene.precision)  # on demand; keeps an earlier init of the same kind
         self.model = model = Model(scene, mode=self.mode)
         start_step = 0
         if self.resume:
             writer, start_step = self._reopen(model, dtype)
         else:
             attrs = {
+                "scene_name": scene.name,
+                "history": f"{_utc_now()}: {self.history}",
+                "width_m": scene.width_m,
                 "scene_toml": scene.to_toml(),
                 "melange_ti_version": __version__,
                 "taichi_version": ".".join(map(str, ti.__version__)),
@@ -322,6 +339,8 @@ class Simulation:
             from tqdm import tqdm
 
             bar = tqdm(total=self.total, initial=start_step, unit="step", unit_scale=True, dynamic_ncols=True, leave=False)
+            # the first advance compiles the kernels (cached on disk after the first run)
+            bar.set_description("compiling kernels (first run only)")
         t0 = wallclock.perf_counter()
         step = start_step
         interrupt = _DeferredInterrupt()
@@ -333,6 +352,8 @@ class Simulation:
                 nxt = min(min(o.schedule.next(step) for o in self.outputs if o.schedule is not None), self.total)
                 model.advance(nxt - step)
                 if bar is not None:
+                    if step == start_step:
+                        bar.set_description("running")
                     bar.update(nxt - step)
                 step = nxt
                 self._events(step)
@@ -368,7 +389,8 @@ class Simulation:
         s = self.model.sample()
         if first:
             self.x0_max = float(np.max(s["x"]))
-            self.e0 = float(np.sum(s["kinetic"]) + np.sum(s["potential"]))
+            self.p0 = float(np.sum(s["potential"]))
+            self.e0 = float(np.sum(s["kinetic"])) + self.p0
         for output in due:
             output.write(self, step, t, s)
         if self.on_event is not None:
@@ -391,14 +413,14 @@ class Simulation:
         model.set_state({k[6:]: ck[k] for k in ck if k.startswith("state_")})
         model.set_accumulators({k[4:]: ck[k] for k in ck if k.startswith("acc_")})
         self.diagnostics.counters = _Counters.load(ck)
-        self.x0_max, self.e0 = float(ck["x0_max"]), float(ck["e0"])
+        self.x0_max, self.e0, self.p0 = float(ck["x0_max"]), float(ck["e0"]), float(ck["p0"])
         writer = RunWriter(self.out, dtype=dtype, mode="r+", resume_time=step * self.scene.time.dt)
         return writer, step
 
     def _summary(self, steps: int, wall: float) -> RunSummary:
         row = self.diagnostics.last or {}
         energy = row.get("kinetic_energy", 0.0) + row.get("potential_energy", 0.0)
-        released = self.e0 - energy
+        lost = self.e0 - energy
         dissipated = sum(row.get(name, 0.0) for name in diag.ENERGY_LEDGERS)
         return RunSummary(
             path=self.out,
@@ -408,7 +430,8 @@ class Simulation:
             time=row.get("time", 0.0),
             capsized_fraction=row.get("capsized_fraction", float("nan")),
             leading_edge=row.get("leading_edge", float("nan")),
-            energy_released=released,
+            energy_released=self.p0 - row.get("potential_energy", self.p0),
+            energy_lost=lost,
             dissipated=dissipated,
-            energy_residual=released - dissipated,
+            energy_residual=lost - dissipated,
         )

@@ -109,7 +109,7 @@ CASES = [
     (
         "overlap-tilted-shelf",
         scene_with({"scene.effects": ["gravity", "buoyancy", "collisions"], "shelf.gap": 0.0, "shelf.tilt": 0.5}),
-        ["iceberg[", "overlaps iceberg"],
+        ["shelf.gap = 0.0", "shelf.tilt = 0.5", "overlaps iceberg", "use shelf.gap >="],
     ),
     ("overlap-wall-moved", scene_with({"physics.wall_x": 2.0}, bergs=BERGS), ["iceberg[0].x", "1.0"]),
     # TOML syntax (line and column)

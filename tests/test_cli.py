@@ -122,7 +122,7 @@ def run_file(tiny_run):
     with h5py.File(out, "r") as f:  # plain h5py, no SWMR flags
         data = {
             "attrs": dict(f.attrs),
-            "groups": {g: sorted(f[g].keys()) for g in f.keys()},
+            "groups": {g: sorted(f[g].keys()) for g in f.keys() if isinstance(f[g], h5py.Group)},
             **{f"{g}/{k}": f[g][k][()] for g in ("icebergs", "snapshots", "diagnostics") for k in f[g].keys()},
             "dtypes": {f"{g}/{k}": f[g][k].dtype for g in ("icebergs", "snapshots", "diagnostics") for k in f[g].keys()},
         }
@@ -140,7 +140,7 @@ def test_run_succeeds_and_prints_summary(tiny_run):
     assert f"simulated t = {DURATION:g} in {steps} steps" in text, text
     assert "capsized fraction" in text
     assert "leading edge" in text
-    assert "energy budget" in text and "residual" in text
+    assert "released (potential, E_p(0) - E_p(t))" in text and "lost (E(0) - E(t))" in text and "residual" in text
     assert "run.h5" in text
 
 
@@ -353,10 +353,19 @@ def test_check_with_set(tiny, capsys):
 
 
 def test_check_with_bad_set(tiny, capsys):
-    rc = cli.main(["check", str(tiny / "tiny.toml"), "--set", "time.dt=0.003"])  # intervals no longer multiples
+    rc = cli.main(["check", str(tiny / "tiny.toml"), "--set", "time.dt=-0.003"])
     cap = capsys.readouterr()
     assert rc == 2
     assert len(error_lines(cap.err)) == 1, cap.err
+    assert "time.dt = -0.003" in cap.err and "must be > 0" in cap.err
+
+
+def test_check_reports_rounded_intervals(tiny, capsys):
+    """A dt that does not divide the intervals is accepted; each rounded value is said."""
+    rc = cli.main(["check", str(tiny / "tiny.toml"), "--set", "time.dt=0.003"])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    assert "note: output.snapshot_interval" in cap.out and "steps of time.dt = 0.003" in cap.out, cap.out
 
 
 def test_bundled_paper_scene_checks(capsys):

@@ -139,7 +139,9 @@ def test_thread_counts_give_identical_files(tmp_path, serial_result):
         data, attrs = files[n]
         assert data.keys() == ref.keys()
         assert_bitwise(ref, data, f"--threads 1 vs --threads {n}")
-        assert {k: str(v) for k, v in attrs.items()} == {k: str(v) for k, v in ref_attrs.items()}
+        # history says when and by which command each file was made: it differs by nature
+        same = {k: str(v) for k, v in attrs.items() if k != "history"}
+        assert same == {k: str(v) for k, v in ref_attrs.items() if k != "history"}
     # and the command-line runs end exactly where the in-process serial model does
     s_ser, _ = serial_result
     for key in STATE:

@@ -44,11 +44,11 @@ from . import stats  # noqa: E402
 from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners  # noqa: E402
 
 G_SI = 9.81  # m s^-2
-RHO_WATER_SI = 1025.0  # kg m^-3, SPEC section 2
+RHO_WATER_SI = 1025.0  # kg m^-3, docs/model.md
 BIN_WIDTH = 10.0  # widths, paper Fig. 5
 SNAPSHOT_SPAN = 30.0  # widths behind the leading edge shown in Fig. 2
 PAPER_FIG2_TIMES = (100.0, 200.0, 300.0, 400.0)
-# every SPEC section 5 diagnostic the figures use (the writer's list minus the extras)
+# every diagnostic (docs/output.md) the figures use (the writer's list minus the extras)
 REQUIRED_DIAGNOSTICS = ("time", *(k for k in DIAGNOSTICS if k not in ("contacts", "wall_force", "impulse_rate")))
 DPI = 150
 
@@ -59,7 +59,7 @@ DPI = 150
 
 @dataclass(frozen=True)
 class Units:
-    """Physical scales for an iceberg ``width_m`` metres wide (SPEC section 1)."""
+    """Physical scales for an iceberg ``width_m`` metres wide (docs/model.md)."""
 
     width_m: float = 70.0
     rho_water: float = RHO_WATER_SI
@@ -541,19 +541,21 @@ def plot(
     paths: Sequence[str | Path],
     out: str | Path,
     times: Sequence[float] | None = None,
-    width_m: float = 70.0,
+    width_m: float | None = None,
     names: Collection[str] | None = None,
 ) -> list[Path]:
     """Every figure (or only those in ``names``, see :data:`FIGURES`) for the given run files
-    into directory ``out``, plus ``summary.csv``; returns the files written."""
-    if not (math.isfinite(width_m) and width_m > 0):
+    into directory ``out``, plus ``summary.csv``; returns the files written. ``width_m``:
+    the iceberg width in metres for the physical axes (default: the first run's
+    ``scene.width_m``)."""
+    if width_m is not None and not (math.isfinite(width_m) and width_m > 0):
         raise SceneError(f"--width-m = {width_m:g}: must be a positive number of metres")
     wanted = set(FIGURES if names is None else names)
     unknown = wanted - set(FIGURES)
     if unknown:
         raise ValueError(f"unknown figures {sorted(unknown)}; known: {', '.join(FIGURES)}")
-    units = Units(width_m=width_m)
     runs = [load_run(p) for p in paths]
+    units = Units(width_m=width_m if width_m is not None else runs[0].scene.width_m)
     out = Path(out)
     try:
         out.mkdir(parents=True, exist_ok=True)

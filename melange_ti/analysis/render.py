@@ -1,7 +1,7 @@
 """``melange-ti render``: frames (PNG) and an MP4 movie of a run, headless (matplotlib Agg).
 
 Each iceberg is drawn as its rectangle coloured by the capsize angle ``phi`` in
-``[0, pi/2]`` (SPEC section 1; capsized from ``pi/4``), optionally with the collision discs
+``[0, pi/2]`` (docs/model.md; capsized from ``pi/4``), optionally with the collision discs
 (``--discs``), over the sea (the water line at ``physics.water_level``) and the wall.
 The movie is encoded by the ``ffmpeg`` binary shipped in the ``imageio-ffmpeg`` wheel.
 """
@@ -21,6 +21,7 @@ from matplotlib.collections import EllipseCollection, PolyCollection  # noqa: E4
 from matplotlib.colors import Normalize  # noqa: E402
 
 from .. import diagnostics as diag  # noqa: E402
+from ..errors import RunError  # noqa: E402
 from ..geometry import disc_local  # noqa: E402
 from ..io.hdf5 import OutputError, read_run, stored_scene  # noqa: E402
 from ..scene import Scene, SceneError  # noqa: E402
@@ -274,10 +275,19 @@ def frame_indices(n: int, every: int) -> np.ndarray:
 
 
 def render(
-    path: str | Path, out: str | Path, discs: bool = False, every: int = 1, fps: int = 20, width_m: float = 70.0
+    path: str | Path,
+    out: str | Path,
+    discs: bool = False,
+    every: int = 1,
+    fps: int = 20,
+    width_m: float | None = None,
+    overwrite: bool = False,
 ) -> list[Path]:
     """Render a run to ``out``: an ``.mp4`` file, or a directory of ``frame_00000.png`` ...
 
+    An existing movie, or a directory holding frames, is refused unless ``overwrite`` (then
+    the old frames are removed first, so none of an earlier render is left). ``width_m``:
+    the iceberg width in metres for the time label (default: the run's ``scene.width_m``).
     Returns the files written.
     """
     if every < 1:
@@ -288,8 +298,17 @@ def render(
     movie = out.suffix.lower() == ".mp4" and not out.is_dir()
     if not movie and out.suffix and not out.is_dir():
         raise SceneError(f"--out {str(out)!r}: give FILE.mp4 or a directory for PNG frames")
+    if width_m is not None and not (math.isfinite(width_m) and width_m > 0):
+        raise SceneError(f"--width-m = {width_m:g}: must be a positive number of metres")
+    stale = sorted(out.glob("frame_*.png")) if not movie and out.is_dir() else []
+    if not overwrite and (movie and out.exists() or stale):
+        what = "file exists" if movie else f"holds {len(stale)} frames of an earlier render"
+        raise RunError(f"--out {str(out)!r}: {what} (use --overwrite to replace, or another --out)")
     run, scene = load_run(path)
+    width_m = width_m if width_m is not None else scene.width_m
     frames = frame_indices(len(run["snapshots"]["time"]), every)
+    for old in stale:
+        old.unlink()
     writer = None
     if movie:
         writer = _movie_writer(out, fps)
@@ -397,7 +416,9 @@ def _movie_writer(out: Path, fps: int) -> _Movie:
 
 def main(args) -> int:
     """Entry point of ``melange-ti render``."""
-    written = render(args.run, args.out, discs=args.discs, every=args.every, fps=args.fps, width_m=getattr(args, "width_m", 70.0))
+    written = render(
+        args.run, args.out, discs=args.discs, every=args.every, fps=args.fps, width_m=args.width_m, overwrite=args.overwrite
+    )
     if len(written) == 1:
         print(f"wrote {written[0]}")
     else:

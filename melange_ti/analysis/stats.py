@@ -1,6 +1,6 @@
 """Ensemble statistics as pure numpy functions (no matplotlib, no files).
 
-Conventions (SPEC sections 1 and 5): times in ``sqrt(w/g)``, lengths in widths ``w``,
+Conventions (docs/model.md, docs/output.md): times in ``sqrt(w/g)``, lengths in widths ``w``,
 energies in ``rho_water g w^3`` per unit length into the page. A *series* is a pair of 1-D
 arrays ``(t, y)`` with ``t`` increasing; an ensemble is a list of series, one per run.
 Runs of different duration or output interval are put on the time grid of the run that
@@ -203,7 +203,7 @@ ENERGY_TERMS = ("released", "kinetic", *LEDGER_TERMS, "residual")
 
 
 def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """The energy budget over time from a run's ``/diagnostics`` (SPEC section 5).
+    """The energy budget over time from a run's ``/diagnostics`` (docs/output.md).
 
     Returns arrays over the diagnostic times:
 

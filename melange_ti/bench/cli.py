@@ -21,6 +21,15 @@ def main(args) -> int:
         print(f"melange-ti: error: bench {which!r}: must be one of {', '.join(WHICH)}", file=sys.stderr)
         return 2
     out = Path(getattr(args, "out", None) or "benchmarks/results")
+    # its results: WHICH.csv, WHICH.png and WHICH_*.csv/png (logs are the caller's)
+    existing = sorted(p.name for p in out.glob(f"{which}*") if p.suffix in (".csv", ".png")) if out.is_dir() else []
+    if existing and not getattr(args, "overwrite", False):
+        print(
+            f"melange-ti: error: bench {which}: --out {out} already holds {', '.join(existing)} "
+            "(use --overwrite to replace them, or another --out)",
+            file=sys.stderr,
+        )
+        return 2
     out.mkdir(parents=True, exist_ok=True)
     opts = Options.from_args(args)
     t0 = time.perf_counter()
@@ -34,6 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("which", choices=WHICH)
     p.add_argument("--out", default="benchmarks/results")
     p.add_argument("--quick", action="store_true", help="a tiny smoke run")
+    p.add_argument("--overwrite", action="store_true", help="replace results already in --out")
     p.add_argument("--threads", type=int, help="Taichi CPU threads for scaling/effects/peers (default: all)")
     p.add_argument("--sizes", type=lambda s: [int(v) for v in s.split(",")], help="iceberg counts, e.g. 400,4000")
     p.add_argument("--steps", type=int, help="timed steps per block (default: by N)")

@@ -10,7 +10,7 @@ precision (and per parallel job)::
 ``RESULT.json`` receives a list with one dict per task, in order, rewritten after every task
 so that a crash keeps what finished. A task that raises is recorded with ``"error"``.
 
-Task kinds (all times non-dimensional, SPEC section 1):
+Task kinds (all times non-dimensional, docs/model.md):
 
 ``paper``      the paper scene (``n`` icebergs) with ``dt``, ``discs``, ``passes``, ``seed``
                for ``duration``; capsized fraction, leading edge and energy every ``every``;

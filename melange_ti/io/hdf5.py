@@ -1,4 +1,4 @@
-"""The run file (SPEC section 5): streamed, chunked, flushed after every write.
+"""The run file (docs/output.md): streamed, chunked, flushed after every write.
 
 Rows are appended with the ``time`` dataset of each group written last, so a reader (or a
 file cut short by ``kill -9``) can trust the shortest consistent length:
@@ -20,11 +20,35 @@ import h5py
 import numpy as np
 
 from ..diagnostics import FIELDS
+from ..physics.schema import BODIES
 from ..physics.schema import STATE_NAMES as STATE
 
-FORMAT_VERSION = 1
+# 2: self-describing as netCDF-4 (dimension scales, units and long_name on every variable,
+# global attributes); 1: plain HDF5 (still read)
+FORMAT_VERSION = 2
 DIAGNOSTICS = tuple(f.name for f in FIELDS)
 DIAG_INT = tuple(f.name for f in FIELDS if f.dtype.startswith("i"))
+TIME_UNITS = "sqrt(w/g)"
+REFERENCE = (
+    "Guttenberg, N., Abbot, D. S., Amundson, J. M., Burton, J. C., Cathles, L. M., MacAyeal, D. R. and Zhang, W. W. "
+    "(2011): Numerical model of ice melange expansion during abrupt ice-shelf collapse. Annals of Glaciology 52(59)."
+)
+UNITS_COMMENT = (
+    "Non-dimensional units: lengths in iceberg widths w, time in sqrt(w/g), densities in rho_water; quantities are per "
+    "unit length into the page (2-D). width_m gives w in metres."
+)
+
+
+def variable_attrs() -> dict[str, dict[str, dict[str, str]]]:
+    """``{group: {variable: {"units": ..., "long_name": ...}}}`` for every variable of a run
+    file, from the schema and the diagnostics table (so the file cannot drift from them)."""
+    cols = {c.output: c for c in BODIES.columns if c.output}
+    bergs = {k: {"units": cols[k].units, "long_name": cols[k].doc} for k in ("width", "thickness", "mass", "inertia")}
+    snaps = {k: {"units": cols[k].units, "long_name": cols[k].doc} for k in STATE}
+    diags = {f.name: {"units": f.units, "long_name": f.long_name} for f in FIELDS}
+    for g in (snaps, diags):
+        g["time"] = {"units": TIME_UNITS, "long_name": "time", "axis": "T"}
+    return {"icebergs": bergs, "snapshots": snaps, "diagnostics": diags}
 
 
 class OutputError(RuntimeError):
@@ -74,23 +98,48 @@ class RunWriter:
 
     def _create(self, attrs: dict, constants: dict[str, np.ndarray]) -> None:
         f = self.f
+        version = attrs.get("melange_ti_version", "")
+        f.attrs["title"] = f"melange_ti run: {attrs.get('scene_name', 'scene')}"
+        f.attrs["source"] = f"melange_ti {version} (Taichi {attrs.get('taichi_version', '')})".strip()
+        f.attrs["history"] = attrs.pop("history", "")
+        f.attrs["references"] = REFERENCE
+        f.attrs["Conventions"] = "CF-1.8"
+        f.attrs["comment"] = UNITS_COMMENT
         for k, v in attrs.items():
             f.attrs[k] = v
         f.attrs["format_version"] = FORMAT_VERSION
         f.attrs["complete"] = False
+        meta = variable_attrs()
         n = len(next(iter(constants.values()))) if constants else 0
+        # dimension scales (netCDF-4 dimensions): iceberg at the root, time in each group
+        iceberg = f.create_dataset("iceberg", data=np.arange(n, dtype=np.int64))
+        iceberg.attrs.update({"units": "1", "long_name": "iceberg index (order of the initial state)"})
+        iceberg.make_scale("iceberg")
         g = f.create_group("icebergs")
         for k, v in constants.items():
-            g.create_dataset(k, data=np.asarray(v, dtype=self.dtype))
+            ds = g.create_dataset(k, data=np.asarray(v, dtype=self.dtype))
+            ds.dims[0].attach_scale(iceberg)
+            ds.attrs.update(meta["icebergs"].get(k, {}))
         rows = max(1, min(64, 65536 // max(n, 1)))
         s = f.create_group("snapshots")
-        s.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(256,))
+        st = s.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(256,))
+        st.make_scale("time")
+        st.attrs.update(meta["snapshots"]["time"])
         for k in STATE:
-            s.create_dataset(k, shape=(0, n), maxshape=(None, n), dtype=self.dtype, chunks=(rows, max(n, 1)))
+            ds = s.create_dataset(k, shape=(0, n), maxshape=(None, n), dtype=self.dtype, chunks=(rows, max(n, 1)))
+            ds.dims[0].attach_scale(st)
+            ds.dims[1].attach_scale(iceberg)
+            ds.attrs.update(meta["snapshots"][k])
         d = f.create_group("diagnostics")
-        d.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(1024,))
+        dt_ = d.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(1024,))
+        dt_.make_scale("time")
+        dt_.attrs.update(meta["diagnostics"]["time"])
         for k in DIAGNOSTICS:
-            d.create_dataset(k, shape=(0,), maxshape=(None,), dtype=np.int64 if k in DIAG_INT else np.float64, chunks=(1024,))
+            ds = d.create_dataset(
+                k, shape=(0,), maxshape=(None,), dtype=np.int64 if k in DIAG_INT else np.float64, chunks=(1024,)
+            )
+            ds.dims[0].attach_scale(dt_)
+            ds.attrs.update(meta["diagnostics"][k])
 
     def _truncate(self, t: float | None) -> None:
         """Drop rows after time ``t`` (and any rows past the consistent length)."""
@@ -194,6 +243,18 @@ def _reason(exc: Exception) -> str:
 def consistent_length(group: h5py.Group) -> int:
     """Rows of a group that every dataset holds (the time dataset is written last)."""
     return min(ds.shape[0] for ds in group.values())
+
+
+def consistent_lengths(path: str | Path) -> dict[str, int]:
+    """``{"snapshots": S, "diagnostics": D}``: the rows every dataset of each group holds."""
+    path = Path(path)
+    try:
+        with h5py.File(path, "r", locking=False) as f:
+            return {group: consistent_length(f[group]) for group in ("snapshots", "diagnostics")}
+    except FileNotFoundError:
+        raise OutputError(f"{path}: not found") from None
+    except (OSError, KeyError, ValueError, RuntimeError) as exc:
+        raise OutputError(f"{path}: not a readable melange_ti run file ({str(exc).splitlines()[0]})") from None
 
 
 def read_run(path: str | Path) -> dict:

@@ -1,4 +1,4 @@
-"""Disc geometry and the normal impulse law (Taichi functions; SPEC section 2).
+"""Disc geometry and the normal impulse law (Taichi functions; docs/model.md).
 
 Each rectangle carries ``discs`` equal discs, ``k = discs/4`` per face, their centres spread
 evenly around the rectangle inset by the radius (face ``f`` starts at an inset corner and

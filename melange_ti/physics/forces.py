@@ -61,7 +61,7 @@ def drift(a: ti.template(), i):
 
 @ti.func
 def potential_energy(fx: ti.template(), a: ti.template(), i):
-    """Potential energy of body i: the sum of the named effects' terms (SPEC section 2)."""
+    """Potential energy of body i: the sum of the named effects' terms (docs/model.md)."""
     u = 0.0
     for e in ti.static(POTENTIALS):
         if ti.static(e.on(fx)):

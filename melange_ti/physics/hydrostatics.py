@@ -62,7 +62,7 @@ def submerged_moments(z, c, s, hw, hh, water_level):
 
 @ti.func
 def potential_energy(z, c, s, hw, hh, mass, water_level, gravity: ti.template(), buoyancy: ti.template()):
-    """``U = m g (z_G - wl) - rho_w g int_sub (z - wl) dA`` for the effects named (SPEC section 2);
+    """``U = m g (z_G - wl) - rho_w g int_sub (z - wl) dA`` for the effects named (docs/model.md);
     ``c``, ``s``: cosine and sine of the tilt."""
     u = 0.0
     if ti.static(gravity):

@@ -1,4 +1,4 @@
-"""The contact law and the impulse pass (SPEC section 2, contact impulses).
+"""The contact law and the impulse pass (docs/model.md, contact impulses).
 
 Per contact with point p, unit normal n (from body j to body i) and arms r_k = p - x_k:
 ``J = -(1 + e) (v_rel . n) / K`` with ``K = 1/m_i + 1/m_j + (r_i x n)^2/I_i + (r_j x n)^2/I_j``,

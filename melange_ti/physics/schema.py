@@ -266,7 +266,7 @@ NAMESPACES = {t.namespace.__name__: t for t in TABLES}
 
 # What the rest of the code derives from the roles.
 STATE = tuple(BODIES.outputs("state"))  # x, z, vx, vz, omega, theta in row order
-STATE_NAMES = ("x", "z", "theta", "vx", "vz", "omega")  # the file's order (SPEC section 5)
+STATE_NAMES = ("x", "z", "theta", "vx", "vz", "omega")  # the file's order (docs/output.md)
 assert sorted(STATE) == sorted(STATE_NAMES)
 CONSTANTS = tuple(BODIES.outputs("constant"))  # /icebergs: width, thickness, mass, inertia
 BODY_LEDGERS = BODIES.outputs("ledger")  # per-body ledgers, summed into a diagnostic

@@ -13,7 +13,7 @@ def force(a: ti.template(), i):
 
 @ti.func
 def potential(a: ti.template(), i):
-    """``m g (z_G - water_level)``: measured from the sea surface (SPEC section 2)."""
+    """``m g (z_G - water_level)``: measured from the sea surface (docs/model.md)."""
     return a.b[i, Body.MASS] * (a.b[i, Body.Z] - a.par[Param.WATER])
 
 

@@ -1,0 +1,105 @@
+"""The Python API: load a scene, run it, open the result (also at the package's top level)::
+
+    import melange_ti as mt
+
+    scene = mt.load_scene("runs/paper.toml", overrides={"shelf.count": 50})
+    summary = mt.run(scene, "out.h5")          # initialises Taichi itself
+    tree = mt.open_run("out.h5")               # xarray.DataTree of the file
+
+Errors are the command line's, as exceptions with the same one-line messages:
+:class:`SceneError` (a scene or value that cannot be run), :class:`RunError` (an output that
+exists, a resume that cannot continue), :class:`ArchError` (no usable backend),
+:class:`OutputError` (a file that cannot be written or read), :class:`NumericalError` and
+:class:`ContactOverflow` (a run stopped by a guard; its output up to there is kept).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from .errors import ArchError, ContactOverflow, NumericalError, RunError
+from .io.hdf5 import OutputError
+from .scene import Scene, SceneError
+
+
+def load_scene(path: str | Path | None = None, overrides: Mapping[str, Any] | None = None) -> Scene:
+    """The scene in the TOML file ``path`` (``None``: the bundled paper scene), with
+    ``overrides`` such as ``{"time.dt": 0.005, "shelf.count": 50}`` applied and everything
+    validated. Raises :class:`SceneError` with a one-line message."""
+    from . import scene
+
+    return scene.load(path, list((overrides or {}).items()))
+
+
+def validated(scene: Scene) -> Scene:
+    """``scene`` checked again as if read from a file (e.g. after :func:`dataclasses.replace`),
+    so what runs and what the output stores are the same text."""
+    from . import scene as scn
+
+    if not isinstance(scene, Scene):
+        raise SceneError(f"scene = {type(scene).__name__}: must be a melange_ti Scene (see load_scene)")
+    return scn.loads(scene.to_toml())
+
+
+def run(
+    scene: Scene,
+    out: str | Path,
+    *,
+    overwrite: bool = False,
+    resume: bool = False,
+    arch: str = "cpu",
+    threads: int | None = None,
+    progress: bool | None = False,
+):
+    """Run ``scene`` into the run file ``out`` and return its :class:`RunSummary`.
+
+    The scene is validated again (a scene changed with :func:`dataclasses.replace` is checked
+    like a file) and stored in the output exactly as run. Taichi is initialised on demand
+    for ``arch``, ``threads`` and the scene's precision. An existing ``out`` is refused
+    unless ``overwrite``; ``resume`` continues an interrupted run from its checkpoint."""
+    from . import runtime
+    from .simulation import Simulation
+
+    scene = validated(scene)
+    sim = Simulation(scene, out, overwrite=overwrite, resume=resume, arch=arch, progress=progress, history="melange_ti.run()")
+    runtime.init(arch, threads, scene.precision)
+    return sim.run()
+
+
+def open_run(path: str | Path):
+    """The run file ``path`` as an :class:`xarray.DataTree`: groups ``icebergs``,
+    ``snapshots`` and ``diagnostics`` with named dimensions ``time`` and ``iceberg``, ``time``
+    as a coordinate, ``units`` and ``long_name`` on every variable. A file still being
+    written (or cut short by a kill) is read up to its last consistent row. The tree reads
+    lazily and keeps the file open: close it (``tree.close()``, or ``with mt.open_run(p) as
+    tree:``) before opening the file again to see rows written since."""
+    import xarray as xr
+
+    from .io.hdf5 import consistent_lengths
+
+    path = Path(path)
+    lengths = consistent_lengths(path)  # also: one-line OutputError for a missing or foreign file
+    # no HDF5 file lock: the writer takes none either, so a running file can be read
+    tree = xr.open_datatree(path, engine="h5netcdf", phony_dims="access", driver_kwds={"locking": False})
+    for group, n in lengths.items():
+        node = tree[group]
+        if "time" in node.dims and node.sizes["time"] != n:
+            tree[group] = node.to_dataset().isel(time=slice(0, n))
+    return tree
+
+
+__all__ = [
+    "ArchError",
+    "ContactOverflow",
+    "NumericalError",
+    "OutputError",
+    "RunError",
+    "Scene",
+    "SceneError",
+    "load_scene",
+    "open_run",
+    "run",
+    "validated",
+]

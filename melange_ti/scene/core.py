@@ -1,0 +1,379 @@
+"""Scene files: TOML -> a frozen, validated :class:`Scene`.
+
+Every problem with a scene raises :class:`SceneError` whose message is one line naming the
+key the user wrote and its value, and what would be accepted; the command line turns it into
+exit status 2. The keys, their units and checks are in :mod:`.keys`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tomllib
+
+from ..physics.effects import NAMES as EFFECTS
+from ..physics.effects import Effects, Key
+from . import keys as K
+from .toml import dumps_toml, parse_value
+
+
+class SceneError(ValueError):
+    """A scene that cannot be run; the message is one line naming key and value."""
+
+
+def _section_class(name: str, keys: tuple[Key, ...], namespace: dict | None = None) -> type:
+    cls = dataclasses.make_dataclass(
+        name,
+        [(k.name, type(k.default), field(default=k.default)) for k in keys],
+        frozen=True,
+        namespace={"__doc__": f"The [{name.lower()}] table (see melange_ti.scene.keys).", **(namespace or {})},
+    )
+    cls.__module__ = __name__
+    return cls
+
+
+def _steps(self) -> int:
+    """Steps of the run: ``round(duration / dt)``."""
+    return int(round(self.duration / self.dt))
+
+
+Physics = _section_class("Physics", K.PHYSICS)
+Contacts = _section_class("Contacts", K.CONTACTS)
+Time = _section_class("Time", K.TIME, {"steps": property(_steps)})
+Output = _section_class("Output", K.OUTPUT)
+Shelf = _section_class("Shelf", K.SHELF)
+Start = _section_class("Start", K.START)
+CLASSES: dict[str, type] = {"physics": Physics, "contacts": Contacts, "time": Time, "output": Output, "shelf": Shelf}
+ICEBERG_DEFAULTS = {k.name: k.default for k in K.ICEBERG}
+RULES = {f"{s}.{k.name}": k for s, ks in K.SECTIONS.items() for k in ks if k.rule is not None}
+INTERVALS = ("output.snapshot_interval", "output.diagnostic_interval", "output.checkpoint_interval")
+
+
+@dataclass(frozen=True)
+class Icebergs:
+    """Initial state of every iceberg, arrays of shape (N,)."""
+
+    x: np.ndarray
+    z: np.ndarray
+    theta: np.ndarray
+    vx: np.ndarray
+    vz: np.ndarray
+    omega: np.ndarray
+    width: np.ndarray
+    thickness: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return int(self.x.shape[0])
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene. Change it with :func:`dataclasses.replace`; :func:`melange_ti.run`
+    validates the changed scene again and stores it in the output exactly as run."""
+
+    name: str
+    effects: Effects
+    precision: str
+    physics: Physics
+    contacts: Contacts
+    time: Time
+    output: Output
+    shelf: Shelf | None = None
+    iceberg_table: tuple[dict, ...] | None = None
+    start: Start | None = None
+    width_m: float = 70.0
+
+    def icebergs(self) -> Icebergs:
+        """The initial state: from ``[shelf]``, ``[[iceberg]]`` or ``[start]``."""
+        from .initial import from_run, generate_shelf
+
+        if self.shelf is not None:
+            return generate_shelf(self.shelf, self.physics, self.time.seed)
+        if self.start is not None:
+            return from_run(self.start)
+        cols = {k: np.array([float(b.get(k, d)) for b in self.iceberg_table]) for k, d in ICEBERG_DEFAULTS.items()}
+        return Icebergs(**cols)
+
+    @property
+    def source(self) -> dict:
+        """The resolved scene as a TOML document (dict), from the fields as they are now."""
+        doc = {
+            "scene": {"name": self.name, "effects": self.effects.names(), "precision": self.precision, "width_m": self.width_m},
+            **{key: dataclasses.asdict(getattr(self, key)) for key in ("physics", "contacts", "time", "output")},
+        }
+        if self.shelf is not None:
+            doc["shelf"] = dataclasses.asdict(self.shelf)
+        elif self.start is not None:
+            doc["start"] = dataclasses.asdict(self.start)
+        else:
+            doc["iceberg"] = [{**ICEBERG_DEFAULTS, **b} for b in self.iceberg_table]
+        return doc
+
+    def to_toml(self) -> str:
+        """The resolved scene as TOML text (stored in every output file)."""
+        return dumps_toml(self.source)
+
+    def notes(self) -> list[str]:
+        """Values the run rounds to whole steps, each said in one line."""
+        dt = self.time.dt
+        out = []
+        for key in ("time.duration", *INTERVALS):
+            value = _get(self, key)
+            used = dt * max(1, round(value / dt))
+            if not math.isclose(used, value, rel_tol=1e-9, abs_tol=1e-12 * dt):
+                out.append(f"{key} = {value:g} runs as {used:.10g} ({round(used / dt)} steps of time.dt = {dt:g})")
+        return out
+
+
+def _get(scene: Scene, key: str) -> Any:
+    section, name = key.split(".")
+    return getattr(getattr(scene, section), name)
+
+
+# ---------------------------------------------------------------- one-line errors
+def _fmt(value: Any) -> str:
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, dict):
+        return "{...}"
+    return _one_line(str(value))
+
+
+def _one_line(text: str) -> str:
+    """``text`` with line breaks and other control characters escaped."""
+    return text if text.isprintable() else repr(text)[1:-1]
+
+
+def error(key: str, value: Any, why: str) -> SceneError:
+    return SceneError(f"{_one_line(key)} = {_fmt(value)}: {_one_line(why)}")
+
+
+def _check_type(key: str, value: Any, default: Any) -> Any:
+    """Coerce ``value`` to the type of ``default`` or refuse it."""
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise error(key, value, "must be true or false")
+        return value
+    if isinstance(default, int):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise error(key, value, "must be an integer")
+        return value
+    if isinstance(default, float):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise error(key, value, "must be a number")
+        value = float(value)
+        if not math.isfinite(value):
+            raise error(key, value, "must be finite")
+        return value
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise error(key, value, "must be a string")
+        return value
+    if isinstance(default, list):
+        return value
+    raise AssertionError(key)
+
+
+def _check_rule(rule_key: str, key: str, value: Any) -> None:
+    k = RULES.get(rule_key)
+    if k is not None and not k.rule(value):
+        raise error(key, value, k.accepts)
+
+
+def _table(doc: dict, name: str, keys: tuple[Key, ...]) -> dict:
+    raw = doc.get(name, {})
+    if not isinstance(raw, dict):
+        raise error(name, raw, "must be a table")
+    defaults = {k.name: k.default for k in keys}
+    values = {}
+    for key, value in raw.items():
+        full = f"{name}.{key}"
+        if key not in defaults:
+            raise error(full, value, f"unknown key (known: {', '.join(defaults)})")
+        values[key] = _check_type(full, value, defaults[key])
+        _check_rule(full, full, values[key])
+    return values
+
+
+def _scene_table(doc: dict) -> dict:
+    t = _table(doc, "scene", K.SCENE)
+    effects = t.get("effects", list(EFFECTS))
+    if not isinstance(effects, list) or not all(isinstance(e, str) for e in effects):
+        raise error("scene.effects", effects, "must be a list of effect names")
+    for e in effects:
+        if e not in EFFECTS:
+            raise error("scene.effects", e, f"unknown effect (known: {', '.join(EFFECTS)})")
+    precision = t.get("precision", "f64")
+    if precision not in ("f32", "f64"):
+        raise error("scene.precision", precision, 'must be "f32" or "f64"')
+    return {
+        "name": t.get("name", "scene"),
+        "effects": Effects(**{e: True for e in effects}),
+        "precision": precision,
+        "width_m": t.get("width_m", 70.0),
+    }
+
+
+def _iceberg_table(doc: dict) -> tuple[dict, ...] | None:
+    raw = doc.get("iceberg")
+    if raw is None:
+        return None
+    if not isinstance(raw, list) or not raw:
+        raise error("iceberg", raw, "must be a non-empty array of tables ([[iceberg]])")
+    out = []
+    for k, berg in enumerate(raw):
+        if not isinstance(berg, dict):
+            raise error(f"iceberg[{k}]", berg, "must be a table")
+        clean = {}
+        for key, value in berg.items():
+            full = f"iceberg[{k}].{key}"
+            if key not in ICEBERG_DEFAULTS:
+                raise error(full, value, f"unknown key (known: {', '.join(ICEBERG_DEFAULTS)})")
+            clean[key] = _check_type(full, value, ICEBERG_DEFAULTS[key])
+            _check_rule(f"iceberg.{key}", full, clean[key])
+        out.append(clean)
+    return tuple(out)
+
+
+def _start_table(doc: dict, base: Path | None) -> Start | None:
+    if "start" not in doc:
+        return None
+    t = _table(doc, "start", K.START)
+    if not t.get("file"):
+        raise error("start.file", t.get("file", ""), "must name a run file (.h5) whose snapshot starts the scene")
+    path = Path(t["file"]).expanduser()
+    if not path.is_absolute():
+        path = (base or Path.cwd()) / path
+    return Start(file=str(path.resolve()), time=t.get("time", 0.0))
+
+
+def _whole_steps(key: str, value: float, dt: float) -> None:
+    """Refuse a time that rounds to no step, or to more than 1e13."""
+    ratio = value / dt
+    if not math.isfinite(ratio) or ratio > 1e13:
+        raise error(key, value, f"is more than 1e13 steps of time.dt = {dt:g}")
+    if round(ratio) < 1:
+        raise error(key, value, f"rounds to 0 steps of time.dt = {dt:g}; use at least {dt:g}")
+
+
+def _set_path(doc: dict, key: str, value: Any) -> None:
+    parts = key.split(".")
+    if len(parts) != 2 or not all(parts):
+        raise error(key, value, "--set needs SECTION.KEY=VALUE (e.g. time.dt=0.005)")
+    section, name = parts
+    if section == "iceberg":
+        raise error(key, value, "[[iceberg]] entries cannot be set from the command line")
+    if section not in K.SECTIONS:
+        raise error(key, value, f"unknown section {section!r} (known: {', '.join(s for s in K.SECTIONS if s != 'iceberg')})")
+    table = doc.setdefault(section, {})
+    if not isinstance(table, dict):
+        raise error(section, table, "must be a table")
+    table[name] = value
+
+
+def parse_overrides(items: list[str] | None) -> list[tuple[str, Any]]:
+    """``["time.dt=0.005", ...]`` -> ``[("time.dt", 0.005), ...]``."""
+    out = []
+    for item in items or []:
+        if "=" not in item:
+            raise SceneError(f"--set {item!r}: expected SECTION.KEY=VALUE")
+        key, text = item.split("=", 1)
+        out.append((key.strip(), parse_value(text.strip())))
+    return out
+
+
+def from_dict(doc: dict, overrides: list[tuple[str, Any]] | None = None, base: Path | None = None) -> Scene:
+    """Validate a parsed TOML document (plus ``--set`` overrides) into a :class:`Scene`.
+    ``base``: the directory a ``[start]`` file is relative to (default: the current one)."""
+    doc = _deepcopy(doc)
+    for key, value in overrides or []:
+        _set_path(doc, key, value)
+    for key in doc:
+        if key not in K.SECTIONS:
+            known = ", ".join(f"[{s}]" for s in K.SECTIONS if s != "iceberg")
+            raise SceneError(f"[{_one_line(str(key))}]: unknown section (known: {known}, [[iceberg]])")
+    head = _scene_table(doc)
+    parts = {key: cls(**_table(doc, key, getattr(K, key.upper()))) for key, cls in CLASSES.items()}
+    table = _iceberg_table(doc)
+    start = _start_table(doc, base)
+    sources = (("[shelf]", "shelf" in doc), ("[[iceberg]]", table is not None), ("[start]", start is not None))
+    given = [name for name, there in sources if there]
+    if len(given) > 1:
+        raise error(given[1].strip("[]"), given[1], f"give one of [shelf], [[iceberg]] or [start], not {' and '.join(given)}")
+    shelf = parts["shelf"] if table is None and start is None else None
+    time = parts["time"]
+    _whole_steps("time.duration", time.duration, time.dt)
+    for key in INTERVALS:
+        _whole_steps(key, getattr(parts["output"], key.split(".")[1]), time.dt)
+    scene = Scene(
+        **head,
+        physics=parts["physics"],
+        contacts=parts["contacts"],
+        time=time,
+        output=parts["output"],
+        shelf=shelf,
+        iceberg_table=table,
+        start=start,
+    )
+    from .initial import check_geometry
+
+    check_geometry(scene)
+    return scene
+
+
+def loads(text: str, overrides: list[tuple[str, Any]] | None = None, base: Path | None = None) -> Scene:
+    """Parse and validate scene TOML text."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"TOML syntax error: {exc}") from None
+    return from_dict(doc, overrides, base)
+
+
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def load(path: str | Path | None, overrides: list[tuple[str, Any]] | None = None) -> Scene:
+    """Load a scene file; ``None`` means the bundled paper scene."""
+    if path is None:
+        return loads(bundled_scene_text("paper"), overrides)
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise SceneError(f"scene file {str(path)!r}: not found") from None
+    except (IsADirectoryError, PermissionError) as exc:
+        raise SceneError(f"scene file {str(path)!r}: cannot be read ({exc.__class__.__name__})") from None
+    if raw.startswith(HDF5_SIGNATURE):
+        raise SceneError(
+            f"scene file {str(path)!r}: is a run file (HDF5), not a scene; to continue it: melange-ti run --resume --out {path}; "
+            f'to start from its state: a scene with [start] file = "{path.name}"'
+        )
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise SceneError(f"scene file {str(path)!r}: not a text (TOML) file") from None
+    try:
+        return loads(text, overrides, base=path.resolve().parent)
+    except SceneError as exc:
+        raise SceneError(f"{path}: {exc}") from None
+
+
+def bundled_scene_text(name: str) -> str:
+    """Text of a scene shipped with the package (``paper``, ``single_capsize``)."""
+    return resources.files("melange_ti").joinpath("scenes", f"{name}.toml").read_text(encoding="utf-8")
+
+
+def _deepcopy(doc: Any) -> Any:
+    if isinstance(doc, dict):
+        return {k: _deepcopy(v) for k, v in doc.items()}
+    if isinstance(doc, list):
+        return [_deepcopy(v) for v in doc]
+    return doc

@@ -1,0 +1,191 @@
+"""The initial state: the paper's shelf, a run's snapshot (``[start]``), and the check that
+no iceberg overlaps another or the wall at t = 0.
+
+Overlaps are judged with the collision geometry, the discs (not the exact rectangles, whose
+corners the discs round off), so any state that the model itself produced is a valid start:
+the model's own states keep disc overlaps far below :data:`OVERLAP_TOLERANCE` disc radii.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..geometry import disc_local
+from .core import Icebergs, Scene, error
+
+# Refuse a start where two icebergs' discs (or a disc and the wall) overlap by more than this
+# fraction of the smaller disc radius: deeper, the first correction would throw them apart.
+OVERLAP_TOLERANCE = 0.1
+_CHUNK = 2048  # pairs whose discs are compared at once
+
+
+def equilibrium_z(thickness: np.ndarray | float, density_ratio: float, water_level: float) -> Any:
+    """Centre height of an upright iceberg floating in hydrostatic equilibrium (draft r*h)."""
+    return water_level - density_ratio * thickness + 0.5 * thickness
+
+
+def generate_shelf(shelf, physics, seed: int) -> Icebergs:
+    """The paper's initial state: a row from the wall, upright, floating, slightly tilted.
+
+    Random numbers are drawn on the host from ``numpy.random.default_rng(seed)``: first the
+    tilts, then (only when ``thickness_std > 0``) the thicknesses, so a spread never changes
+    the tilts of a scene.
+    """
+    rng = np.random.default_rng(seed)
+    n = shelf.count
+    theta = rng.uniform(-shelf.tilt, shelf.tilt, n) if shelf.tilt > 0 else np.zeros(n)
+    thickness = np.full(n, shelf.thickness)
+    if shelf.thickness_std > 0:
+        thickness = rng.normal(shelf.thickness, shelf.thickness_std, n)
+        if np.any(thickness <= 0.05 * shelf.thickness):
+            raise error(
+                "shelf.thickness_std", shelf.thickness_std, "draws thicknesses <= 5% of shelf.thickness; use a smaller spread"
+            )
+    width = np.full(n, shelf.width)
+    x = physics.wall_x + shelf.gap + 0.5 * shelf.width + np.arange(n) * (shelf.width + shelf.gap)
+    z = equilibrium_z(thickness, physics.density_ratio, physics.water_level)
+    zeros = np.zeros(n)
+    return Icebergs(x=x, z=z, theta=theta, vx=zeros, vz=zeros.copy(), omega=zeros.copy(), width=width, thickness=thickness)
+
+
+def from_run(start) -> Icebergs:
+    """The state of a run file's last snapshot at or before ``start.time``."""
+    path = Path(start.file)
+    try:
+        stamp = path.stat().st_mtime_ns
+    except OSError:
+        raise error("start.file", start.file, "not found") from None
+    return _snapshot(str(path), float(start.time), stamp)
+
+
+@lru_cache(maxsize=8)
+def _snapshot(path: str, time: float, stamp: int) -> Icebergs:
+    from ..io.hdf5 import OutputError, read_run
+
+    try:
+        data = read_run(path)
+    except OutputError as exc:
+        raise error("start.file", path, str(exc).split(": ", 1)[-1]) from None
+    times = data["snapshots"]["time"]
+    if times.size == 0:
+        raise error("start.file", path, "the run has no snapshot")
+    k = int(np.searchsorted(times, time + 1e-9 * max(1.0, abs(time)), side="right")) - 1
+    if k < 0:
+        raise error("start.time", time, f"before the run's first snapshot (t = {times[0]:g})")
+    snap = data["snapshots"]
+    cols = {name: np.asarray(snap[name][k], dtype=np.float64) for name in ("x", "z", "theta", "vx", "vz", "omega")}
+    bergs = data["icebergs"]
+    return Icebergs(
+        **cols, width=np.asarray(bergs["width"], dtype=np.float64), thickness=np.asarray(bergs["thickness"], dtype=np.float64)
+    )
+
+
+def _world_discs(b: Icebergs, idx: np.ndarray, local: np.ndarray) -> np.ndarray:
+    c, s = np.cos(b.theta[idx]), np.sin(b.theta[idx])
+    u, v = local[idx, :, 0], local[idx, :, 1]
+    return np.stack([b.x[idx, None] + u * c[:, None] - v * s[:, None], b.z[idx, None] + u * s[:, None] + v * c[:, None]], -1)
+
+
+def _extent(width: float, thickness: float, radius: float, tilt: float) -> float:
+    """Largest horizontal half-extent of the disc union of a rectangle tilted by up to ``tilt``."""
+    iu, iv = 0.5 * width - radius, 0.5 * thickness - radius
+    t = np.linspace(0.0, tilt, 1001)
+    return float(np.max(np.abs(iu * np.cos(t)) + np.abs(iv * np.sin(t))) + radius)
+
+
+def _shelf_advice(scene: Scene, b: Icebergs, r: np.ndarray, wall: bool) -> str:
+    """What ``shelf.gap`` would leave room for any tilt up to ``shelf.tilt``."""
+    sh = scene.shelf
+    ext = _extent(sh.width, float(b.thickness.max()), float(r.max()), sh.tilt)
+    need = ext - 0.5 * sh.width if wall else 2.0 * ext - sh.width
+    return f"use shelf.gap >= {math.ceil(need * 1e4) / 1e4:g} (room for any tilt up to shelf.tilt) or a smaller shelf.tilt"
+
+
+def check_geometry(scene: Scene) -> None:
+    b = scene.icebergs()
+    for name in ("x", "z", "theta"):
+        arr = getattr(b, name)
+        if not np.all(np.isfinite(arr)):
+            raise error(f"iceberg.{name}", arr[~np.isfinite(arr)][0], "must be finite")
+    if not scene.effects.contacts:
+        return
+    # The radius may not exceed half the shortest face: L / (k s + 2) <= l / 2.
+    spacing = scene.contacts.disc_spacing
+    aspect = np.maximum(b.width, b.thickness) / np.minimum(b.width, b.thickness)
+    k = scene.contacts.discs // 4
+    worst = int(np.argmax(aspect))
+    if 2.0 * aspect[worst] > k * spacing + 2.0 + 1e-12:
+        need = 4 * max(2, math.ceil((2.0 * aspect[worst] - 2.0) / spacing - 1e-12))
+        raise error(
+            "contacts.discs",
+            scene.contacts.discs,
+            f"too few for iceberg {worst} of aspect ratio {aspect[worst]:.3g}: disc spacing on its long face "
+            f"would exceed 2*radius (holes); use at least {need}",
+        )
+    local, r = disc_local(b.width, b.thickness, scene.contacts.discs, spacing)
+    if scene.effects.wall:
+        _check_wall(scene, b, local, r)
+    if scene.effects.collisions and b.count > 1:
+        _check_pairs(scene, b, local, r)
+
+
+def _where(scene: Scene, i: int) -> tuple[str, Any]:
+    """The key the user wrote for iceberg i's position."""
+    if scene.shelf is not None:
+        return "shelf.gap", scene.shelf.gap
+    if scene.start is not None:
+        return "start.time", scene.start.time
+    return f"iceberg[{i}].x", float(scene.iceberg_table[i].get("x", 0.0))
+
+
+def _check_wall(scene: Scene, b: Icebergs, local: np.ndarray, r: np.ndarray) -> None:
+    wall_x = scene.physics.wall_x
+    for lo in range(0, b.count, _CHUNK):
+        idx = np.arange(lo, min(lo + _CHUNK, b.count))
+        p = _world_discs(b, idx, local)
+        depth = (wall_x - (p[:, :, 0] - r[idx, None])).max(axis=1) / r[idx]
+        bad = np.flatnonzero(depth > OVERLAP_TOLERANCE)
+        if bad.size:
+            i = int(idx[bad[0]])
+            key, value = _where(scene, i)
+            what = f"iceberg {i} overlaps the wall at x = {wall_x:g} at t = 0 by {depth[bad[0]]:.3g} disc radii"
+            if scene.shelf is not None:
+                what = f"with shelf.tilt = {scene.shelf.tilt:g}, {what}; {_shelf_advice(scene, b, r, True)}"
+            raise error(key, value, what)
+
+
+def _check_pairs(scene: Scene, b: Icebergs, local: np.ndarray, r: np.ndarray) -> None:
+    bound = 0.5 * np.hypot(b.width, b.thickness)
+    order = np.argsort(b.x, kind="stable")
+    xs = b.x[order]
+    reach = 2.0 * bound.max()
+    pairs = []
+    for d in range(1, b.count):  # neighbours d apart in x order, while any is within reach
+        near = np.flatnonzero(xs[d:] - xs[:-d] < reach)
+        if near.size == 0:
+            break
+        i, j = order[near], order[near + d]
+        close = np.hypot(b.x[i] - b.x[j], b.z[i] - b.z[j]) < bound[i] + bound[j]
+        pairs.append(np.stack([np.minimum(i, j)[close], np.maximum(i, j)[close]], 1))
+    if not pairs:
+        return
+    pairs = np.concatenate(pairs)
+    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+    for lo in range(0, len(pairs), _CHUNK):
+        i, j = pairs[lo : lo + _CHUNK, 0], pairs[lo : lo + _CHUNK, 1]
+        pi, pj = _world_discs(b, i, local), _world_discs(b, j, local)
+        dist = np.linalg.norm(pi[:, :, None, :] - pj[:, None, :, :], axis=-1)
+        depth = ((r[i] + r[j])[:, None, None] - dist).max(axis=(1, 2)) / np.minimum(r[i], r[j])
+        bad = np.flatnonzero(depth > OVERLAP_TOLERANCE)
+        if bad.size:
+            a, c = int(i[bad[0]]), int(j[bad[0]])
+            key, value = _where(scene, c)
+            what = f"iceberg {c} overlaps iceberg {a} at t = 0 (their discs by {depth[bad[0]]:.3g} disc radii)"
+            if scene.shelf is not None:
+                what = f"with shelf.tilt = {scene.shelf.tilt:g}, {what}; {_shelf_advice(scene, b, r, False)}"
+            raise error(key, value, what)

@@ -1,0 +1,168 @@
+"""Every scene key: default, units, meaning and the check its value must pass.
+
+The scene reference in ``docs/scenes.md`` is generated from these tables (and the effects'
+own keys, :mod:`melange_ti.physics.effects`), so the docs cannot drift from the code; a test
+fails when a key has no description. Units are non-dimensional: lengths in iceberg widths
+``w``, time in ``sqrt(w/g)``, densities in ``rho_w``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..physics.effects import REGISTRY, Key
+
+SCENE = (
+    Key("name", "scene", "", "a name for the run; the default output file is NAME_seedSEED.h5"),
+    Key(
+        "effects",
+        ["gravity", "buoyancy", "drag", "collisions", "wall"],
+        "",
+        "the physical terms simulated (see the effects table); an effect not named costs nothing",
+        None,
+        "must be a list of: gravity, buoyancy, drag, collisions, wall",
+    ),
+    Key("precision", "f64", "", "floating point of the state and the kernels", None, 'must be "f64" or "f32"'),
+    Key(
+        "width_m",
+        70.0,
+        "m",
+        "the iceberg width w in metres: sets the physical axes of figures and movies (time unit "
+        "sqrt(w/g), energy unit rho_w g w^3 per metre); the model itself stays non-dimensional",
+        lambda v: v > 0.0,
+        "must be > 0",
+    ),
+)
+
+BASE_PHYSICS = (
+    Key("density_ratio", 0.8946, "1", "rho_ice / rho_water (917 / 1025)", lambda v: 0.0 < v < 1.0, "must be in (0, 1)"),
+    Key(
+        "restitution",
+        0.5,
+        "1",
+        "Newton coefficient of restitution on the normal relative velocity, iceberg and wall contacts (the paper's 0.5)",
+        lambda v: 0.0 <= v <= 1.0,
+        "must be in [0, 1]",
+    ),
+    Key("water_level", 0.0, "w", "height z of the flat sea surface"),
+)
+PHYSICS = (*BASE_PHYSICS, *(k for e in REGISTRY for k in e.keys))
+
+CONTACTS = (
+    Key(
+        "discs",
+        28,
+        "1",
+        "collision discs per iceberg, spread evenly over its four faces (the paper used 12, 28, 60)",
+        lambda v: v >= 8 and v % 4 == 0,
+        "must be a multiple of 4 and at least 8",
+    ),
+    Key("contact_passes", 1, "1", "Gauss-Seidel repetitions of the impulse pass per step", lambda v: v >= 1, "must be >= 1"),
+    Key(
+        "max_partners",
+        32,
+        "1",
+        "contact slots per iceberg; a run that needs more stops with a message instead of dropping contacts",
+        lambda v: 1 <= v <= 1024,
+        "must be in [1, 1024]",
+    ),
+    Key(
+        "disc_spacing",
+        2.0,
+        "disc radii",
+        "centre spacing of the discs on the longest face (2: just touching, the paper's rule; less: smoother faces)",
+        lambda v: 0.0 < v <= 2.0,
+        "must be in (0, 2] (above 2 the discs leave holes)",
+    ),
+)
+
+TIME = (
+    Key("dt", 0.01, "sqrt(w/g)", "time step (the paper's 0.01)", lambda v: v > 0.0, "must be > 0"),
+    Key(
+        "duration",
+        8000.0,
+        "sqrt(w/g)",
+        "simulated time; the run takes round(duration / dt) steps (a rounded value is reported)",
+        lambda v: v > 0.0,
+        "must be > 0",
+    ),
+    Key("seed", 1, "1", "seed of the random initial tilts", lambda v: 0 <= v < 2**63, "must be in [0, 2**63)"),
+)
+
+OUTPUT = (
+    Key(
+        "snapshot_interval",
+        10.0,
+        "sqrt(w/g)",
+        "time between snapshots of every iceberg's state (rounded to whole steps)",
+        lambda v: v > 0.0,
+        "must be > 0",
+    ),
+    Key(
+        "diagnostic_interval",
+        1.0,
+        "sqrt(w/g)",
+        "time between rows of the scalar diagnostics (rounded to whole steps)",
+        lambda v: v > 0.0,
+        "must be > 0",
+    ),
+    Key(
+        "checkpoint_interval",
+        500.0,
+        "sqrt(w/g)",
+        "time between restart checkpoints (RUN.h5.ckpt; rounded to whole steps)",
+        lambda v: v > 0.0,
+        "must be > 0",
+    ),
+)
+
+SHELF = (
+    Key("count", 400, "1", "icebergs in the row", lambda v: 1 <= v <= 10_000_000, "must be in [1, 10000000]"),
+    Key("width", 1.0, "w", "width of every iceberg", lambda v: v > 0.0, "must be > 0"),
+    Key("thickness", 1.4, "w", "mean thickness (the paper's aspect ratio 1.4)", lambda v: v > 0.0, "must be > 0"),
+    Key("gap", 0.1, "w", "gap between neighbours, and from the wall to the first iceberg", lambda v: v >= 0.0, "must be >= 0"),
+    Key(
+        "tilt",
+        0.01,
+        "rad",
+        "amplitude of the uniform random initial tilt",
+        lambda v: 0.0 <= v <= math.pi,
+        "must be in [0, pi]",
+    ),
+    Key(
+        "thickness_std",
+        0.0,
+        "w",
+        "standard deviation of a normal spread of thicknesses (0: all equal)",
+        lambda v: v >= 0.0,
+        "must be >= 0",
+    ),
+)
+
+START = (
+    Key("file", "", "", "a run file (relative to the scene file) whose snapshot is the initial state"),
+    Key("time", 0.0, "sqrt(w/g)", "the last snapshot at or before this time is used", lambda v: v >= 0.0, "must be >= 0"),
+)
+
+ICEBERG = (
+    Key("x", 0.0, "w", "centre of mass, horizontal (seaward +)"),
+    Key("z", 0.0, "w", "centre of mass, vertical (up +; the sea surface at water_level)"),
+    Key("theta", 0.0, "rad", "tilt, counter-clockwise, 0 upright (thickness vertical)"),
+    Key("vx", 0.0, "w / sqrt(w/g)", "velocity, horizontal"),
+    Key("vz", 0.0, "w / sqrt(w/g)", "velocity, vertical"),
+    Key("omega", 0.0, "rad / sqrt(w/g)", "angular velocity, counter-clockwise"),
+    Key("width", 1.0, "w", "width (along the body u axis)", lambda v: v > 0.0, "must be > 0"),
+    Key("thickness", 1.4, "w", "thickness (along the body v axis)", lambda v: v > 0.0, "must be > 0"),
+)
+
+# The tables of a scene file and their keys; [[iceberg]] is an array of tables.
+SECTIONS: dict[str, tuple[Key, ...]] = {
+    "scene": SCENE,
+    "physics": PHYSICS,
+    "contacts": CONTACTS,
+    "time": TIME,
+    "output": OUTPUT,
+    "shelf": SHELF,
+    "start": START,
+    "iceberg": ICEBERG,
+}

@@ -1,0 +1,306 @@
+"""What a new user meets: the Python API, self-describing files read with xarray, the docs
+in the repository, and the sharp edges a first user hit (each end to end, through the CLI
+or the API, as a user would)."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+import melange_ti as mt
+from melange_ti.io.hdf5 import read_run
+from melange_ti.scene import dumps_toml
+
+ROOT = Path(__file__).resolve().parents[1]
+PY = sys.executable
+SMALL = {"shelf.count": 12, "shelf.tilt": 0.15, "shelf.gap": 0.2, "time.duration": 30.0, "output.snapshot_interval": 5.0}
+
+
+def cli(args, cwd, **kw):
+    return subprocess.run([PY, "-m", "melange_ti", *args], cwd=cwd, capture_output=True, text=True, timeout=600, **kw)
+
+
+def one_error(proc) -> str:
+    assert "Traceback" not in proc.stderr, proc.stderr
+    lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("melange-ti: error:")]
+    assert len(lines) == 1 and proc.returncode == 2, (proc.returncode, proc.stderr)
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    d = tmp_path_factory.mktemp("api")
+    scene = mt.load_scene(overrides=SMALL)
+    summary = mt.run(scene, d / "small.h5")
+    return d / "small.h5", summary
+
+
+# ---------------------------------------------------------------- the Python API
+def test_api_at_top_level():
+    for name in ("load_scene", "run", "open_run", "SceneError", "RunError", "OutputError", "ArchError"):
+        assert hasattr(mt, name), name
+    with pytest.raises(mt.SceneError, match=r"time\.dt = -1.0: must be > 0"):
+        mt.load_scene(overrides={"time.dt": -1.0})
+
+
+def test_run_initialises_taichi_itself(tmp_path):
+    """A fresh interpreter: load, run, open; no runtime.init, no Taichi import by hand."""
+    code = (
+        "import melange_ti as mt\n"
+        f"s = mt.load_scene(overrides={SMALL!r})\n"
+        "r = mt.run(s, 'x.h5')\n"
+        "print(mt.open_run('x.h5')['diagnostics'].sizes['time'], r.steps)\n"
+    )
+    p = subprocess.run([PY, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    n_diag, steps = map(int, p.stdout.split())
+    assert steps == 3000 and n_diag == 31
+
+
+def test_changed_scene_is_validated_and_stored_as_run(tmp_path):
+    scene = mt.load_scene(overrides=SMALL)
+    changed = dataclasses.replace(scene, physics=dataclasses.replace(scene.physics, drag=0.05))
+    mt.run(changed, tmp_path / "d.h5")
+    stored = read_run(tmp_path / "d.h5")["attrs"]["scene_toml"]
+    assert "\ndrag = 0.05\n" in stored and "\ndrag = 0.01\n" not in stored
+    bad = dataclasses.replace(scene, physics=dataclasses.replace(scene.physics, drag=-1.0))
+    with pytest.raises(mt.SceneError, match=r"physics\.drag = -1.0: must be >= 0"):
+        mt.run(bad, tmp_path / "bad.h5")
+    assert not (tmp_path / "bad.h5").exists()
+
+
+def test_run_refuses_to_overwrite(small_run):
+    path, _ = small_run
+    before = path.read_bytes()
+    with pytest.raises(mt.RunError, match="file exists"):
+        mt.run(mt.load_scene(overrides=SMALL), path)
+    assert path.read_bytes() == before
+
+
+# ---------------------------------------------------------------- self-describing files
+def test_xarray_round_trip(small_run):
+    path, summary = small_run
+    tree = mt.open_run(path)
+    raw = read_run(path)
+    for group in ("icebergs", "snapshots", "diagnostics"):
+        ds = tree[group].to_dataset()
+        assert not [d for d in ds.dims if str(d).startswith("phony_dim")], ds.dims
+        for name, var in ds.variables.items():
+            assert var.attrs.get("units") is not None and var.attrs.get("long_name"), (group, name, var.attrs)
+        for name in raw[group]:
+            np.testing.assert_array_equal(ds[name].values, raw[group][name], err_msg=f"{group}/{name}")
+    snaps = tree["snapshots"]
+    assert snaps["x"].dims == ("time", "iceberg") and "time" in snaps.coords
+    assert tree["diagnostics"]["capsized_fraction"].dims == ("time",) and "time" in tree["diagnostics"].coords
+    assert snaps.sizes["iceberg"] == 12 and snaps.sizes["time"] == 7
+    assert float(tree["diagnostics"].time[-1]) == 30.0
+    for key in ("title", "source", "history", "references", "Conventions", "scene_toml", "width_m"):
+        assert key in tree.attrs, key
+    assert tree.attrs["format_version"] == 2
+    assert abs(float(tree["diagnostics"].capsized_fraction[-1]) - summary.capsized_fraction) == 0.0
+
+
+def test_xarray_follows_a_running_file_and_reads_it_after_kill9(tmp_path):
+    """A run followed with mt.open_run while it writes (every view consistent: all variables
+    of a group as long as its time), then killed with SIGKILL: still opens, up to the last
+    flush, and what it holds is the start of the same run finished elsewhere."""
+    overrides = ["--set", "shelf.count=100", "--set", "time.duration=20000", "--set", "output.snapshot_interval=200"]
+    p = subprocess.Popen([PY, "-m", "melange_ti", "run", "--out", "run.h5", *overrides], cwd=tmp_path, stderr=subprocess.PIPE)
+    seen = []
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and p.poll() is None and (len(seen) < 3 or seen[-1] < 6):
+            if (tmp_path / "run.h5").exists():
+                try:
+                    tree = mt.open_run(tmp_path / "run.h5")
+                except mt.OutputError:
+                    time.sleep(0.05)
+                    continue
+                with tree:  # closed after each look, so the next open sees new rows
+                    snaps = tree["snapshots"].to_dataset()
+                    t = snaps.time.values
+                    np.testing.assert_allclose(t, np.arange(t.size) * 200.0)
+                    assert all(snaps[v].shape[0] == t.size for v in snaps.data_vars)
+                    assert np.all(np.isfinite(snaps.x.values))
+                if not seen or t.size > seen[-1]:
+                    seen.append(t.size)
+            time.sleep(0.05)
+        assert p.poll() is None, "the run finished before the test could kill it"
+        p.send_signal(signal.SIGKILL)
+        p.wait(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert len(seen) >= 3, f"the reader saw the file grow only {seen}"
+    after = mt.open_run(tmp_path / "run.h5")
+    n = after["snapshots"].sizes["time"]
+    assert n >= seen[-1]
+    assert after["diagnostics"].time.values[-1] >= after["snapshots"].time.values[-1]
+
+
+# ---------------------------------------------------------------- the sharp edges
+def test_gpu_without_gpu_is_refused_in_one_line(tmp_path):
+    proc = cli(["run", "--arch", "gpu", "--set", "shelf.count=3", "--out", "g.h5"], tmp_path)
+    assert "--arch gpu" in one_error(proc)
+    assert not (tmp_path / "g.h5").exists()
+
+
+def test_bench_never_overwrites_results(tmp_path):
+    (tmp_path / "effects.csv").write_text("mine\n")
+    proc = cli(["bench", "effects", "--quick", "--out", str(tmp_path)], tmp_path)
+    line = one_error(proc)
+    assert "effects.csv" in line and "--overwrite" in line
+    assert (tmp_path / "effects.csv").read_text() == "mine\n"
+
+
+def test_render_never_overwrites_and_leaves_no_stale_frames(small_run, tmp_path):
+    path, _ = small_run
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for k in range(7):
+        (frames / f"frame_{k:05d}.png").write_bytes(b"old")
+    line = one_error(cli(["render", str(path), "--out", str(frames)], tmp_path))
+    assert "7 frames" in line and "--overwrite" in line
+    assert sorted(p.read_bytes() for p in frames.iterdir()) == [b"old"] * 7
+    proc = cli(["render", str(path), "--out", str(frames), "--every", "3", "--overwrite"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    left = sorted(p.name for p in frames.iterdir())
+    assert left == ["frame_00000.png", "frame_00001.png", "frame_00002.png"], left
+    assert all(p.read_bytes() != b"old" for p in frames.iterdir())
+    movie = tmp_path / "m.mp4"
+    movie.write_bytes(b"mine")
+    assert "file exists" in one_error(cli(["render", str(path), "--out", str(movie)], tmp_path))
+    assert movie.read_bytes() == b"mine"
+
+
+def test_a_state_the_model_produced_starts_a_scene(tmp_path):
+    """The last snapshot of a run where icebergs capsized against each other, written as
+    [[iceberg]] tables, is accepted; and [start] takes the same state from the file."""
+    over = {**SMALL, "shelf.count": 30, "shelf.gap": 0.15, "shelf.tilt": 0.1, "time.duration": 300.0}
+    scene = mt.load_scene(overrides=over)
+    mt.run(scene, tmp_path / "a.h5")
+    data = read_run(tmp_path / "a.h5")
+    assert data["diagnostics"]["contacts"].sum() > 100 and data["diagnostics"]["capsized_fraction"][-1] > 0
+    snap = {k: data["snapshots"][k][-1] for k in ("x", "z", "theta", "vx", "vz", "omega")}
+    bergs = [{k: float(snap[k][i]) for k in snap} for i in range(30)]
+    doc = {k: v for k, v in scene.source.items() if k != "shelf"}
+    doc["iceberg"] = bergs
+    (tmp_path / "from_state.toml").write_text(dumps_toml(doc))
+    proc = cli(["check", "from_state.toml"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    doc = {k: v for k, v in scene.source.items() if k != "shelf"}
+    doc["start"] = {"file": "a.h5", "time": 300.0}
+    (tmp_path / "start.toml").write_text(dumps_toml(doc))
+    started = mt.load_scene(tmp_path / "start.toml")
+    b = started.icebergs()
+    for k in snap:
+        np.testing.assert_array_equal(getattr(b, k), snap[k])
+
+
+def test_errors_name_the_keys_the_user_wrote(tmp_path):
+    line = one_error(cli(["check", "--set", "shelf.gap=0.01", "--set", "shelf.tilt=0.1"], tmp_path))
+    assert "shelf.gap = 0.01" in line and "shelf.tilt = 0.1" in line and "use shelf.gap >=" in line, line
+    line = one_error(cli(["check", "--set", "phsyics.drag=0.02"], tmp_path))
+    assert "phsyics.drag = 0.02" in line and "unknown section 'phsyics'" in line and "{" not in line, line
+
+
+def test_durations_round_to_whole_steps(tmp_path):
+    proc = cli(["run", "--set", "shelf.count=3", "--set", "time.duration=0.255", "--out", "r.h5"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "note: time.duration = 0.255 runs as 0.26 (26 steps of time.dt = 0.01)" in proc.stdout, proc.stdout
+    with h5py.File(tmp_path / "r.h5") as f:
+        assert f["snapshots/time"][-1] == 26 * 0.01
+    line = one_error(cli(["check", "--set", "time.duration=0.004"], tmp_path))
+    assert "time.duration = 0.004" in line and "use at least 0.01" in line
+
+
+def test_a_run_file_given_as_scene_says_what_to_do(small_run, tmp_path):
+    path, _ = small_run
+    line = one_error(cli(["run", str(path)], tmp_path))
+    assert "is a run file (HDF5)" in line and "--resume" in line and "[start]" in line
+
+
+def test_check_defaults_to_the_paper_scene_and_counts_right(tmp_path):
+    proc = cli(["check"], tmp_path)
+    assert proc.returncode == 0 and "400 icebergs" in proc.stdout, proc
+    one = {"scene": {"effects": ["gravity", "buoyancy"]}, "iceberg": [{"z": -0.55}]}
+    (tmp_path / "one.toml").write_text(dumps_toml(one))
+    proc = cli(["check", "one.toml"], tmp_path)
+    assert proc.returncode == 0 and "(1 iceberg," in proc.stdout, proc.stdout
+
+
+def test_default_output_name_carries_the_set_values(tmp_path):
+    proc = cli(["run", "--set", "shelf.count=3", "--set", "time.duration=0.1"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "paper_seed1_count=3_duration=0.1.h5").exists(), os.listdir(tmp_path)
+
+
+def test_released_has_one_meaning(small_run):
+    """The summary's "released" is the potential energy released, as in summary.csv and the
+    energy figure (stats.energy_budget); the mechanical energy lost is named apart."""
+    from melange_ti.analysis import stats
+
+    path, summary = small_run
+    budget = stats.energy_budget(read_run(path)["diagnostics"])
+    assert summary.energy_released == pytest.approx(budget["released"][-1], rel=1e-12)
+    assert summary.energy_lost == pytest.approx(budget["total_loss"][-1], rel=1e-12)
+    assert summary.energy_residual == pytest.approx(budget["residual"][-1], rel=1e-9, abs=1e-15)
+
+
+def test_width_in_metres_is_stored_and_used(tmp_path):
+    scene = mt.load_scene(overrides={**SMALL, "scene.width_m": 120.0})
+    mt.run(scene, tmp_path / "w.h5")
+    with h5py.File(tmp_path / "w.h5") as f:
+        assert f.attrs["width_m"] == 120.0
+    from melange_ti.analysis import figures
+
+    run = figures.load_run(tmp_path / "w.h5")
+    assert run.scene.width_m == 120.0
+
+
+# ---------------------------------------------------------------- docs and the example
+def test_generated_docs_are_up_to_date():
+    from melange_ti import docs
+
+    assert docs.main(["--check"]) == 0, "run: python -m melange_ti.docs"
+
+
+def test_every_scene_key_is_documented():
+    from melange_ti.scene import keys
+
+    text = (ROOT / "docs" / "scenes.md").read_text()
+    for section, ks in keys.SECTIONS.items():
+        for k in ks:
+            assert k.doc.strip(), f"{section}.{k.name} has no description"
+            assert f"| `{k.name}` |" in text, f"{section}.{k.name} missing from docs/scenes.md"
+    for e in mt.load_scene().effects.names():
+        assert f"| `{e}` |" in text
+
+
+def test_readme_links_exist():
+    import re
+
+    text = (ROOT / "README.md").read_text()
+    for link in re.findall(r"\]\(([^)#]+)\)", text):
+        if not link.startswith("http"):
+            assert (ROOT / link).exists(), link
+    assert "../shared" not in text
+
+
+def test_worked_example_runs(tmp_path):
+    p = subprocess.run(
+        [PY, str(ROOT / "examples" / "drag_sensitivity.py"), str(tmp_path)], capture_output=True, text=True, timeout=900
+    )
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "drag_sensitivity.png").stat().st_size > 10_000
+    lines = [ln for ln in p.stdout.splitlines() if ln.startswith("drag")]
+    assert len(lines) == 2, p.stdout
