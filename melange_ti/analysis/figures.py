@@ -38,18 +38,26 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..io.hdf5 import DIAGNOSTICS, OutputError, read_run, stored_scene  # noqa: E402
-from ..scene import Scene, SceneError  # noqa: E402
+from ..io.hdf5 import OutputError  # noqa: E402
+from ..scene import SceneError  # noqa: E402
 from . import stats  # noqa: E402
 from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners  # noqa: E402
+from .runs import (  # noqa: E402, F401 (load_run and parse_times are part of this module's interface)
+    Group,
+    Run,
+    check_times,
+    default_times,
+    last_snapshot_time,
+    load_run,
+    make_groups,
+    parse_times,
+    snap_times,
+)
 
 G_SI = 9.81  # m s^-2
 RHO_WATER_SI = 1025.0  # kg m^-3, docs/model.md
 BIN_WIDTH = 10.0  # widths, paper Fig. 5
 SNAPSHOT_SPAN = 30.0  # widths behind the leading edge shown in Fig. 2
-PAPER_FIG2_TIMES = (100.0, 200.0, 300.0, 400.0)
-# every diagnostic (docs/output.md) the figures use (the writer's list minus the extras)
-REQUIRED_DIAGNOSTICS = ("time", *(k for k in DIAGNOSTICS if k not in ("contacts", "wall_force", "impulse_rate")))
 DPI = 150
 
 
@@ -118,113 +126,6 @@ def time_axes(ax, units: Units, tmax: float, top: bool = True) -> None:
 def length_axis(ax, axis: str, units: Units, lmax: float, what: str) -> None:
     k, u = _length_scale(units, lmax)
     _secondary(ax, axis, k, f"{what} ({u})")
-
-
-# ---------------------------------------------------------------------------------------
-# Runs and groups
-
-
-@dataclass
-class Run:
-    path: Path
-    data: dict
-    scene: Scene
-    flat: dict
-
-    @property
-    def diag(self) -> dict:
-        return self.data["diagnostics"]
-
-    @property
-    def snaps(self) -> dict:
-        return self.data["snapshots"]
-
-    @property
-    def seed(self) -> int:
-        return self.scene.time.seed
-
-
-@dataclass
-class Group:
-    key: tuple
-    label: str
-    runs: list[Run]
-
-    def series(self, name: str) -> stats.Ensemble:
-        return stats.ensemble([(r.diag["time"], r.diag[name]) for r in self.runs])
-
-
-def load_run(path: str | Path) -> Run:
-    """One run file with its scene; a one-line :class:`OutputError` if it cannot be plotted."""
-    path = Path(path)
-    data = read_run(path)
-    scene = stored_scene(path, data)
-    missing = [k for k in REQUIRED_DIAGNOSTICS if k not in data["diagnostics"]]
-    missing += [f"snapshots/{k}" for k in ("time", "x", "z", "theta") if k not in data["snapshots"]]
-    missing += [f"icebergs/{k}" for k in ("width", "thickness") if k not in data["icebergs"]]
-    if missing:
-        raise OutputError(f"{path}: not a melange_ti run file (missing {', '.join(missing)})")
-    if len(data["snapshots"]["time"]) == 0:
-        raise OutputError(f"{path}: no snapshots yet (nothing to plot)")
-    if len(data["diagnostics"]["time"]) == 0:
-        raise OutputError(f"{path}: no diagnostics yet (nothing to plot)")
-    return Run(path=path, data=data, scene=scene, flat=stats.flatten_scene(scene.source))
-
-
-def make_groups(runs: Sequence[Run], keys: Sequence[str] | None = None) -> list[Group]:
-    """Group runs by ``keys`` (default: every parameter key whose value differs between them)."""
-    flats = [r.flat for r in runs]
-    if keys is None:
-        keys = stats.differing_keys(flats)
-    return [
-        Group(key=k, label=stats.group_label(k), runs=[runs[i] for i in idx])
-        for k, idx in stats.group_by_keys(flats, keys).items()
-    ]
-
-
-def parse_times(text: str | None) -> list[float] | None:
-    """``"100,200,300"`` -> ``[100.0, 200.0, 300.0]``; one-line :class:`SceneError` if malformed."""
-    if text is None:
-        return None
-    out = []
-    for item in text.split(","):
-        item = item.strip()
-        try:
-            t = float(item)
-        except ValueError:
-            raise SceneError(f"--times {text!r}: {item!r} is not a number") from None
-        if not math.isfinite(t) or t < 0:
-            raise SceneError(f"--times {text!r}: {item!r} must be a finite time >= 0")
-        out.append(t)
-    if not out:
-        raise SceneError(f"--times {text!r}: give comma-separated times")
-    return sorted(set(out))
-
-
-def last_snapshot_time(runs: Sequence[Run]) -> float:
-    return min(float(r.snaps["time"][-1]) for r in runs)
-
-
-def default_times(t_end: float) -> tuple[list[float], list[float]]:
-    """Default times for Fig. 2 (the paper's 100..400 when the runs reach them) and Fig. 5."""
-    fig2 = list(PAPER_FIG2_TIMES) if t_end >= PAPER_FIG2_TIMES[-1] else [t_end * f for f in (0.25, 0.5, 0.75, 1.0)]
-    fig5 = [t_end * f for f in (0.125, 0.25, 0.5, 1.0)]
-    return fig2, fig5
-
-
-def snap_times(times: Sequence[float], runs: Sequence[Run]) -> list[float]:
-    """Each time moved to the nearest snapshot of the run that ends first; duplicates dropped."""
-    shortest = min(runs, key=lambda r: float(r.snaps["time"][-1]))
-    t = shortest.snaps["time"]
-    return sorted({float(t[stats.nearest_index(t, x)]) for x in times})
-
-
-def check_times(times: Sequence[float], runs: Sequence[Run]) -> None:
-    t_end = last_snapshot_time(runs)
-    late = [t for t in times if t > t_end * (1 + 1e-9) + 1e-9]
-    if late:
-        shortest = min(runs, key=lambda r: float(r.snaps["time"][-1]))
-        raise SceneError(f"--times {late[0]:g}: after the last snapshot (t = {t_end:g}) of {shortest.path}")
 
 
 # ---------------------------------------------------------------------------------------

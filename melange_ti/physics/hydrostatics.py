@@ -71,3 +71,77 @@ def potential_energy(z, c, s, hw, hh, mass, water_level, gravity: ti.template(),
         m = submerged_moments(z, c, s, hw, hh, water_level)
         u -= m[2] + m[0] * (z - water_level)
     return u
+
+
+@ti.func
+def _second(px, pz, qx, qz):
+    """Contribution of the directed segment p->q to (int x^2 dA, int z^2 dA) of a CCW polygon."""
+    cross = px * qz - qx * pz
+    return ti.Vector([cross * (px * px + px * qx + qx * qx) / 12.0, cross * (pz * pz + pz * qz + qz * qz) / 12.0])
+
+
+@ti.func
+def _cube_integral(a, b, length):
+    """``int_0^length |a + b s|^3 ds`` for ``b = +-1``."""
+    e = a + b * length
+    return (e * ti.abs(e) ** 3 - a * ti.abs(a) ** 3) / (4.0 * b)
+
+
+@ti.func
+def wetted(z, c, s, hw, hh, water_level, ux, uz):
+    """The submerged part of the rectangle, for the water's dynamic loads (form drag, added
+    mass): its area ``A``, polar second moment ``J = int |r|^2 dA`` about the centre of mass,
+    its width projected on the unit direction (ux, uz), ``P = max r.u - min r.u``, and
+    ``R3 = int over the wetted faces of |r x n|^3 ds`` (n the face's normal), the lever-arm
+    integral of a quadratic pressure drag on rotation. Relative to the centre of mass."""
+    level = water_level - z
+    area = 0.0
+    second = ti.Vector([0.0, 0.0])
+    lo = 1e30
+    hi = -1e30
+    r3 = 0.0
+    exit_pt = ti.Vector([0.0, 0.0])
+    entry_pt = ti.Vector([0.0, 0.0])
+    crossed = 0
+    for k in ti.static(range(4)):
+        p = corner(k, hw, hh, c, s)
+        q = corner((k + 1) % 4, hw, hh, c, s)
+        p_wet = p[1] < level
+        q_wet = q[1] < level
+        a = p
+        b = q
+        wet = p_wet or q_wet
+        if p_wet != q_wet:
+            t = (level - p[1]) / (q[1] - p[1])
+            cut = ti.Vector([p[0] + t * (q[0] - p[0]), level])
+            crossed = 1
+            if p_wet:
+                b = cut
+                exit_pt = cut
+            else:
+                a = cut
+                entry_pt = cut
+        if wet:
+            m = _segment(a[0], a[1], b[0], b[1])
+            area += m[0]
+            second += _second(a[0], a[1], b[0], b[1])
+            for end in ti.static(range(2)):
+                pt = a if end == 0 else b
+                proj = pt[0] * ux + pt[1] * uz
+                lo = ti.min(lo, proj)
+                hi = ti.max(hi, proj)
+            # the face's unit tangent t and outward normal n = (t_z, -t_x) of a CCW polygon:
+            # r x n = r_x n_z - r_z n_x = -(r . t), linear along the face with slope -1
+            length = ti.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2)
+            if length > 0:
+                tx = (b[0] - a[0]) / length
+                tz = (b[1] - a[1]) / length
+                r3 += _cube_integral(-(a[0] * tx + a[1] * tz), -1.0, length)
+    if crossed:
+        m = _segment(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1])
+        area += m[0]
+        second += _second(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1])
+    width = 0.0
+    if hi >= lo:
+        width = hi - lo
+    return ti.Vector([area, second[0] + second[1], width, r3])
