@@ -15,6 +15,8 @@ exists, a resume that cannot continue), :class:`ArchError` (no usable backend),
 
 from __future__ import annotations
 
+import os
+import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -68,6 +70,24 @@ def run(
     return sim.run()
 
 
+_OPEN_ATTEMPTS = 20
+
+
+def _close_handles(path: Path) -> None:
+    """Close every HDF5 handle this process holds on ``path``."""
+    import h5py
+
+    target = os.path.realpath(path)
+    for fid in h5py.h5f.get_obj_ids(types=h5py.h5f.OBJ_FILE):
+        try:
+            name = fid.name.decode() if isinstance(fid.name, bytes) else str(fid.name)
+            if os.path.realpath(name) == target:
+                while fid.valid:
+                    fid.close()
+        except (OSError, ValueError, RuntimeError):
+            pass
+
+
 def open_run(path: str | Path):
     """The run file ``path`` as an :class:`xarray.DataTree`: groups ``icebergs``,
     ``snapshots`` and ``diagnostics`` with named dimensions ``time`` and ``iceberg``, ``time``
@@ -80,13 +100,28 @@ def open_run(path: str | Path):
     from .io.hdf5 import consistent_lengths
 
     path = Path(path)
-    lengths = consistent_lengths(path)  # also: one-line OutputError for a missing or foreign file
-    # no HDF5 file lock: the writer takes none either, so a running file can be read
-    tree = xr.open_datatree(path, engine="h5netcdf", phony_dims="access", driver_kwds={"locking": False})
-    for group, n in lengths.items():
-        node = tree[group]
-        if "time" in node.dims and node.sizes["time"] != n:
-            tree[group] = node.to_dataset().isel(time=slice(0, n))
+    for attempt in range(_OPEN_ATTEMPTS):
+        lengths = consistent_lengths(path)  # also: one-line OutputError for a missing or foreign file
+        try:
+            # no HDF5 file lock: the writer takes none either, so a running file can be read
+            tree = xr.open_datatree(path, engine="h5netcdf", phony_dims="access", driver_kwds={"locking": False})
+            break
+        except (OSError, KeyError, ValueError) as exc:
+            # a file being written (HDF5 without SWMR) can be caught mid-write; the failed
+            # open leaves its handle open, and HDF5 would serve every later open of the file
+            # from that stale view: close it, wait a moment, try again
+            _close_handles(path)
+            if attempt == _OPEN_ATTEMPTS - 1:
+                raise OutputError(f"{path}: cannot be read now ({str(exc).splitlines()[0]}); try again") from None
+            time.sleep(0.05 * (attempt + 1))
+    try:
+        for group, n in lengths.items():
+            node = tree[group]
+            if "time" in node.dims and node.sizes["time"] != n:
+                tree[group] = node.to_dataset().isel(time=slice(0, n))
+    except Exception:
+        tree.close()  # an open handle would pin HDF5's view of a growing file
+        raise
     return tree
 
 

@@ -43,6 +43,7 @@ from .physics.schema import (
     Config,
     Counter,
     Param,
+    body_width,
 )
 from .scene import Icebergs, Scene
 
@@ -108,7 +109,7 @@ class Model:
             return ti.ndarray(dtype, shape=(*lead, table.size))
 
         self.arrays = Arrays(
-            b=alloc(BODIES, n),
+            b=ti.ndarray(self.real, shape=(n, body_width(self.fx))),
             bi=alloc(BODY_INTS, n),
             cd=alloc(CONTACTS, slots, nc),
             cp=ti.ndarray(ti.i32, shape=(slots, nc)),
@@ -126,7 +127,7 @@ class Model:
 
         a = self.arrays
         p = scene.physics
-        rows = np.zeros((n, BODIES.size), dtype=np.float64)
+        rows = np.zeros((n, body_width(self.fx)), dtype=np.float64)
         mass = p.density_ratio * bergs.width * bergs.thickness
         bound = 0.5 * np.hypot(bergs.width, bergs.thickness)
         rows[:, Body.WIDTH] = bergs.width
@@ -204,7 +205,7 @@ class Model:
         """Everything cumulative besides the state (for checkpoints): the per-body ledgers
         by name, the run-wide accumulators (``acc``) and the counters (``counters``)."""
         rows = self._rows()
-        out = {name: rows[:, col].copy() for name, col in BODY_LEDGERS.items()}
+        out = {name: rows[:, col].copy() if col < rows.shape[1] else np.zeros(self.n) for name, col in BODY_LEDGERS.items()}
         out["acc"] = self.arrays.acc.to_numpy()
         out["counters"] = self.arrays.cnt.to_numpy()
         return out
@@ -212,7 +213,8 @@ class Model:
     def set_accumulators(self, acc: dict[str, np.ndarray]) -> None:
         rows = self._rows()
         for name, col in BODY_LEDGERS.items():
-            rows[:, col] = acc[name]
+            if col < rows.shape[1]:
+                rows[:, col] = acc[name]
         self.arrays.b.from_numpy(rows)
         self.arrays.acc.from_numpy(np.asarray(acc["acc"], dtype=np.float64))
         self.arrays.cnt.from_numpy(np.asarray(acc["counters"], dtype=np.int64))

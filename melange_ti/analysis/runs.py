@@ -8,12 +8,17 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..io.hdf5 import DIAGNOSTICS, OutputError, read_run, stored_scene
+from ..physics.effects import NAMES, PAPER_EFFECTS
+from ..physics.schema import BODIES
 from ..scene import Scene, SceneError
 from . import stats
 
 PAPER_FIG2_TIMES = (100.0, 200.0, 300.0, 400.0)
-# every diagnostic (docs/output.md) the figures use (the writer's list minus the extras)
-REQUIRED_DIAGNOSTICS = ("time", *(k for k in DIAGNOSTICS if k not in ("contacts", "wall_force", "impulse_rate")))
+BEYOND_PAPER = tuple(n for n in NAMES if n not in PAPER_EFFECTS)
+# every diagnostic (docs/output.md) the figures need: the writer's list minus the extras and
+# the ledgers of effects beyond the paper (absent from older files: counted as 0)
+_OPTIONAL = ("contacts", "wall_force", "impulse_rate", *(c.output for c in BODIES.columns if c.owner in BEYOND_PAPER))
+REQUIRED_DIAGNOSTICS = ("time", *(k for k in DIAGNOSTICS if k not in _OPTIONAL))
 
 
 @dataclass

@@ -28,13 +28,17 @@ EFFECTS_COLUMNS = ["n", "config", "effects", "mode", "steps", "ms_per_step", "sa
 
 
 def effect_configs(quick: bool) -> list[tuple[str, list[str]]]:
-    from ..physics.effects import NAMES  # every registered effect (imports Taichi: lazily)
+    from ..physics.effects import NAMES, PAPER_EFFECTS  # (imports Taichi: lazily)
 
-    allx = list(NAMES)
+    allx = list(PAPER_EFFECTS)
+    beyond = [n for n in NAMES if n not in PAPER_EFFECTS]
     if quick:
         return [("all", allx), ("no collisions", [e for e in allx if e != "collisions"]), ("none", [])]
     return (
-        [("all", allx)] + [(f"no {e}", [x for x in allx if x != e]) for e in allx] + [("only gravity", ["gravity"]), ("none", [])]
+        [("all", allx)]
+        + [(f"no {e}", [x for x in allx if x != e]) for e in allx]
+        + [(f"all + {e}", [*allx, e]) for e in beyond]
+        + [("only gravity", ["gravity"]), ("none", [])]
     )
 
 

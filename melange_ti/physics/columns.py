@@ -70,6 +70,7 @@ class Column:
     output: str | None = None
     line: int | None = None
     source: str | None = None
+    owner: str | None = None  # the effect that declares the column (None: the model's own)
 
     def __post_init__(self):
         if self.role not in ROLES:

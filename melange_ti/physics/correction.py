@@ -12,7 +12,7 @@ energy the pushes add is booked per moved body (``Acc.CORRECTION``, ``correction
 import taichi as ti
 
 from .effects import wall
-from .forces import potential_energy
+from .forces import contact_mass, potential_energy
 from .impulses import normal_speed
 from .schema import Acc, Body, BodyInt, Contact, Param
 
@@ -43,11 +43,11 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end):
     (``Body.POT_START``) and is marked with the sweep (``BodyInt.PUSHED``); the pass books
     the energy change per body."""
     b = ti.static(a.b)
-    inv1 = b[i, Body.INV_MASS]
+    _m1, inv1, _i1 = contact_mass(fx, a, i)
     inv2 = 0.0
     g = 0.0
     if j >= 0:
-        inv2 = b[j, Body.INV_MASS]
+        _m2, inv2, _i2 = contact_mass(fx, a, j)
         g = g_end + (b[i, Body.SHIFT_X] - b[j, Body.SHIFT_X]) * nx + (b[i, Body.SHIFT_Z] - b[j, Body.SHIFT_Z]) * nz
     else:
         g = wall.gap(a, i)

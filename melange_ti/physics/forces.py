@@ -9,7 +9,7 @@ named damping term (:data:`.effects.DAMPERS`); after contacts, ``x += dt v`` and
 
 import taichi as ti
 
-from .effects import DAMPERS, FORCES, POTENTIALS
+from .effects import ADDED, DAMPERS, FORCES, POST_DRIFT, POTENTIALS
 from .schema import Body, Param
 
 HAS_TORQUE = tuple(e for e in FORCES if e.torque)
@@ -21,10 +21,38 @@ def any_on(effects, fx) -> bool:
 
 
 @ti.func
+def added_inertia(fx: ti.template(), a: ti.template(), i):
+    """The iceberg's mass and moment of inertia with what the named effects add (the water
+    it carries); exactly its own columns when none adds any."""
+    m = a.b[i, Body.MASS]
+    inertia = a.b[i, Body.INERTIA]
+    for e in ti.static(ADDED):
+        if ti.static(e.on(fx)):
+            extra = e.added_inertia(a, i)
+            m += extra[0]
+            inertia += extra[1]
+    return m, inertia
+
+
+@ti.func
+def contact_mass(fx: ti.template(), a: ti.template(), i):
+    """(mass, 1 / mass, moment of inertia) the contact law and the correction use: the
+    iceberg's, plus the added inertia stored at this step's kick when an effect adds any."""
+    m = a.b[i, Body.MASS]
+    inv = a.b[i, Body.INV_MASS]
+    inertia = a.b[i, Body.INERTIA]
+    if ti.static(any_on(ADDED, fx)):
+        m += a.b[i, Body.ADDED_M]
+        inv = 1.0 / m
+        inertia += a.b[i, Body.ADDED_I]
+    return m, inv, inertia
+
+
+@ti.func
 def kick(fx: ti.template(), a: ti.template(), i):
     b = ti.static(a.b)
     dt = a.par[Param.DT]
-    m = b[i, Body.MASS]
+    m, inertia = added_inertia(fx, a, i)
     fz = 0.0
     tau = 0.0
     for e in ti.static(FORCES):
@@ -36,10 +64,10 @@ def kick(fx: ti.template(), a: ti.template(), i):
     if ti.static(any_on(FORCES, fx)):
         b[i, Body.VZ] += dt * fz / m
     if ti.static(any_on(HAS_TORQUE, fx)):
-        b[i, Body.OM] += dt * tau / b[i, Body.INERTIA]
+        b[i, Body.OM] += dt * tau / inertia
     for e in ti.static(DAMPERS):
         if ti.static(e.on(fx)):
-            e.damp(a, i)
+            e.damp(a, i, m, inertia)
 
 
 @ti.func
@@ -50,13 +78,16 @@ def orient(a: ti.template(), i):
 
 
 @ti.func
-def drift(a: ti.template(), i):
+def drift(fx: ti.template(), a: ti.template(), i):
     b = ti.static(a.b)
     dt = a.par[Param.DT]
     b[i, Body.X] += dt * b[i, Body.VX]
     b[i, Body.Z] += dt * b[i, Body.VZ]
     b[i, Body.TH] += dt * b[i, Body.OM]
     orient(a, i)
+    for e in ti.static(POST_DRIFT):
+        if ti.static(e.on(fx)):
+            e.post_drift(a, i)
 
 
 @ti.func
@@ -70,6 +101,8 @@ def potential_energy(fx: ti.template(), a: ti.template(), i):
 
 
 @ti.func
-def kinetic_energy(a: ti.template(), i):
+def kinetic_energy(fx: ti.template(), a: ti.template(), i):
+    """Kinetic energy of iceberg i, and of the water it carries when an effect adds inertia."""
     b = ti.static(a.b)
-    return 0.5 * b[i, Body.MASS] * (b[i, Body.VX] ** 2 + b[i, Body.VZ] ** 2) + 0.5 * b[i, Body.INERTIA] * b[i, Body.OM] ** 2
+    m, inertia = added_inertia(fx, a, i)
+    return 0.5 * m * (b[i, Body.VX] ** 2 + b[i, Body.VZ] ** 2) + 0.5 * inertia * b[i, Body.OM] ** 2

@@ -18,6 +18,7 @@ import taichi as ti
 
 from .broad import outran
 from .contacts import cross2
+from .forces import contact_mass
 from .schema import Acc, Body, BodyInt, Config, Contact, Counter, Param
 
 DEEP_FRACTION = 0.1  # a contact still closing by more than this many disc radii runs the pass again
@@ -38,7 +39,7 @@ def normal_speed(a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz):
 
 
 @ti.func
-def resolve(a: ti.template(), i, j, px, pz, nx, nz, gap):
+def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap):
     """Apply the impulse of the contact law to the pair (i, j) (j < 0: the wall) if it approaches."""
     b = ti.static(a.b)
     rx1 = px - b[i, Body.X]
@@ -53,19 +54,22 @@ def resolve(a: ti.template(), i, j, px, pz, nx, nz, gap):
         e = a.par[Param.RESTITUTION]
         n = ti.Vector([nx, nz])
         a1 = cross2(ti.Vector([rx1, rz1]), n)
-        kk = b[i, Body.INV_MASS] + a1 * a1 / b[i, Body.INERTIA]
+        m1, inv1, i1 = contact_mass(fx, a, i)
+        kk = inv1 + a1 * a1 / i1
         a2 = 0.0
+        m2, i2 = 1.0, 1.0
         if j >= 0:
             a2 = cross2(ti.Vector([rx2, rz2]), n)
-            kk += b[j, Body.INV_MASS] + a2 * a2 / b[j, Body.INERTIA]
+            m2, inv2, i2 = contact_mass(fx, a, j)
+            kk += inv2 + a2 * a2 / i2
         jn = -(1.0 + e) * vn / kk
-        b[i, Body.VX] += jn * nx / b[i, Body.MASS]
-        b[i, Body.VZ] += jn * nz / b[i, Body.MASS]
-        b[i, Body.OM] += a1 * jn / b[i, Body.INERTIA]
+        b[i, Body.VX] += jn * nx / m1
+        b[i, Body.VZ] += jn * nz / m1
+        b[i, Body.OM] += a1 * jn / i1
         if j >= 0:
-            b[j, Body.VX] -= jn * nx / b[j, Body.MASS]
-            b[j, Body.VZ] -= jn * nz / b[j, Body.MASS]
-            b[j, Body.OM] -= a2 * jn / b[j, Body.INERTIA]
+            b[j, Body.VX] -= jn * nx / m2
+            b[j, Body.VZ] -= jn * nz / m2
+            b[j, Body.OM] -= a2 * jn / i2
         else:
             a.acc[Acc.WALL_IMPULSE] += jn
         a.acc[Acc.COLLISION] += 0.5 * (1.0 - e * e) * vn * vn / kk
@@ -81,11 +85,12 @@ def impulse_pass(fx: ti.template(), a: ti.template()):
         for i in range(n):
             if ti.static(fx.wall):
                 if a.bi[i, BodyInt.WALL_ON]:
-                    resolve(a, i, -1, a.par[Param.WALL_X], b[i, Body.WALL_PZ], 1.0, 0.0, b[i, Body.WALL_GAP])
+                    resolve(fx, a, i, -1, a.par[Param.WALL_X], b[i, Body.WALL_PZ], 1.0, 0.0, b[i, Body.WALL_GAP])
             if ti.static(fx.collisions):
                 for s in range(a.bi[i, BodyInt.NCONTACT]):
                     cd = ti.static(a.cd)
                     resolve(
+                        fx,
                         a,
                         i,
                         a.cp[s, i],

@@ -35,6 +35,7 @@ subscript's column comes from the namespace of the array it indexes (Taichi woul
 
 from __future__ import annotations
 
+import dataclasses
 from typing import NamedTuple
 
 from .columns import Acc, Body, BodyInt, Cell, Column, Config, Contact, Counter, ListPose, Param, Scratch, Table
@@ -43,7 +44,7 @@ E = "rho_w g w^3"  # energy per unit length into the page (g = rho_w = w = 1)
 LINE_COLUMNS = 8  # 64-byte cache line of f64 columns
 
 
-def _bodies(effect_columns: tuple[Column, ...]) -> Table:
+def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ()) -> Table:
     """The per-iceberg row, grouped into cache lines by the phases that read it together (at
     large N the sweeps are bound by memory traffic). Line 2 holds the cold columns and the
     effects' own; more effect columns than fit open line 3."""
@@ -67,15 +68,24 @@ def _bodies(effect_columns: tuple[Column, ...]) -> Table:
         Column("REACH", "scratch", "w", "broad phase: how far the body may move this step"),
         Column("MOTION", "scratch", "w", "broad phase: how far it moves at its current velocities"),
     )
-    line2 = (
+    line2 = [
         Column("TH", "state", "rad", "tilt, counter-clockwise, 0 upright; continuous (not wrapped)", "theta"),
         Column("MASS", "constant", "rho_w w^2", "mass, density_ratio * width * thickness", "mass"),
         Column("INERTIA", "constant", "rho_w w^4", "moment of inertia, mass (w^2 + h^2) / 12", "inertia"),
         *effect_columns,
         Column("POT_START", "scratch", E, "correction: potential energy before the body's first push"),
-    )
+    ]
+    # the effects beyond the paper start a line of their own: a scene that names none of
+    # them allocates the paper's three lines only (Model), so they cost it nothing
+    spare = 0
+    while beyond and (3 * LINE_COLUMNS - len(line0) - len(line1) - len(line2)) > 0:
+        spare += 1
+        line2.append(Column(f"SPARE_{spare}", "scratch", "1", "unused: keeps the effects beyond the paper on their own line"))
     # cache lines follow from the position (8 f64 columns a line)
-    cols = [Column(c.name, c.role, c.units, c.doc, c.output, k // LINE_COLUMNS) for k, c in enumerate((*line0, *line1, *line2))]
+    cols = [
+        Column(c.name, c.role, c.units, c.doc, c.output, k // LINE_COLUMNS, owner=c.owner)
+        for k, c in enumerate((*line0, *line1, *line2, *beyond))
+    ]
     width = -(-len(cols) // LINE_COLUMNS) * LINE_COLUMNS
     return Table(
         "bodies",
@@ -254,15 +264,32 @@ class Arrays(NamedTuple):
 def _build():
     from .effects import REGISTRY
 
-    body_cols = tuple(c for e in REGISTRY for c in e.body_columns)
+    def owned(e):
+        return tuple(dataclasses.replace(c, owner=e.name) for c in e.body_columns)
+
+    body_cols = tuple(c for e in REGISTRY if not e.beyond_paper for c in owned(e))
+    beyond = tuple(c for e in REGISTRY if e.beyond_paper for c in owned(e))
     param_cols = tuple(c for e in REGISTRY for c in e.params)
-    return _bodies(body_cols), _params(param_cols)
+    return _bodies(body_cols, beyond), _params(param_cols)
 
 
 BODIES, PARAMS = _build()
 TABLES = (BODIES, BODY_INTS, CONTACTS, LIST_POSES, CELLS, PARAMS, SCRATCH, CONFIG, COUNTERS, ACCUMULATORS)
 
 NAMESPACES = {t.namespace.__name__: t for t in TABLES}
+
+
+def body_width(fx) -> int:
+    """Columns of ``b`` a model with the effect set ``fx`` allocates: the model's own and
+    those of the effects it names, in whole cache lines."""
+    used = [k for k, c in enumerate(BODIES.columns) if c.owner is None or getattr(fx, c.owner)]
+    return -(-(max(used) + 1) // LINE_COLUMNS) * LINE_COLUMNS
+
+
+def allocated(column: Column, fx) -> bool:
+    """Whether a model with the effect set ``fx`` has ``column`` of ``b``."""
+    return column.owner is None or bool(getattr(fx, column.owner)) or BODIES.index(column.name) < body_width(fx)
+
 
 # What the rest of the code derives from the roles.
 STATE = tuple(BODIES.outputs("state"))  # x, z, vx, vz, omega, theta in row order

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import taichi as ti
 
 from . import broad, correction, forces, impulses, narrow
-from .schema import BODIES, Arrays, Counter
+from .schema import BODIES, Arrays, Counter, allocated
 
 MAX_DETECT = 16  # rounds of (detection,) impulse pass and check per step
 
@@ -94,7 +94,7 @@ def forces_stage(fx: ti.template(), a: ti.template()):
 @ti.func
 def drift_stage(fx: ti.template(), a: ti.template()):
     for i in range(a.b.shape[0]):
-        forces.drift(a, i)
+        forces.drift(fx, a, i)
 
 
 FORCES = Stage("forces", forces_stage, (Part(forces_stage),))
@@ -212,6 +212,15 @@ def orient_all(b: arr):
 # (their output names, from the schema), then the kinetic and potential energy.
 _SAMPLED = [(c.output, k) for k, c in enumerate(BODIES.columns) if c.output and c.role in ("state", "ledger")]
 SAMPLED_COLUMNS = tuple(k for _, k in _SAMPLED)
+SAMPLED_OWNERS = tuple(BODIES.columns[k].owner for k in SAMPLED_COLUMNS)
+
+
+def _sampled(fx) -> tuple:
+    """(position in the sample, column) of the sampled columns a model of ``fx`` has; the
+    others (an effect not named) stay 0 in the sample."""
+    return tuple((n, k) for n, k in enumerate(SAMPLED_COLUMNS) if allocated(BODIES.columns[k], fx))
+
+
 SAMPLE_NAMES = (*(name for name, _ in _SAMPLED), "kinetic", "potential")
 
 
@@ -221,7 +230,7 @@ def sample_all(fx: ti.template(), b: arr, par: arr, out: arr):
     a = ti.static(Arrays(b, None, None, None, None, None, None, par, None, None, None, None))
     for i in range(b.shape[0]):
         forces.orient(a, i)
-        for k, col in ti.static(enumerate(SAMPLED_COLUMNS)):
+        for k, col in ti.static(_sampled(fx)):
             out[i, k] = b[i, col]
-        out[i, ti.static(len(SAMPLED_COLUMNS))] = forces.kinetic_energy(a, i)
+        out[i, ti.static(len(SAMPLED_COLUMNS))] = forces.kinetic_energy(fx, a, i)
         out[i, ti.static(len(SAMPLED_COLUMNS) + 1)] = forces.potential_energy(fx, a, i)

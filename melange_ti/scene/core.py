@@ -18,7 +18,7 @@ import numpy as np
 import tomllib
 
 from ..physics.effects import NAMES as EFFECTS
-from ..physics.effects import Effects, Key
+from ..physics.effects import PAPER_EFFECTS, Effects, Key
 from . import keys as K
 from .toml import dumps_toml, parse_value
 
@@ -204,7 +204,7 @@ def _table(doc: dict, name: str, keys: tuple[Key, ...]) -> dict:
 
 def _scene_table(doc: dict) -> dict:
     t = _table(doc, "scene", K.SCENE)
-    effects = t.get("effects", list(EFFECTS))
+    effects = t.get("effects", list(PAPER_EFFECTS))
     if not isinstance(effects, list) or not all(isinstance(e, str) for e in effects):
         raise error("scene.effects", effects, "must be a list of effect names")
     for e in effects:

@@ -12,14 +12,25 @@ The order is the order in which forces are summed, and so part of the results' b
 
 from dataclasses import make_dataclass
 
-from . import buoyancy, collisions, drag, gravity, wall
+from . import added_mass, buoyancy, collisions, drag, form_drag, gravity, wall
 from .base import Effect, Key
 
-REGISTRY: tuple[Effect, ...] = (gravity.EFFECT, buoyancy.EFFECT, drag.EFFECT, collisions.EFFECT, wall.EFFECT)
+REGISTRY: tuple[Effect, ...] = (
+    gravity.EFFECT,
+    buoyancy.EFFECT,
+    drag.EFFECT,
+    form_drag.EFFECT,
+    added_mass.EFFECT,
+    collisions.EFFECT,
+    wall.EFFECT,
+)
 NAMES: tuple[str, ...] = tuple(e.name for e in REGISTRY)
+PAPER_EFFECTS: tuple[str, ...] = tuple(e.name for e in REGISTRY if not e.beyond_paper)  # a scene's default
 BY_NAME = {e.name: e for e in REGISTRY}
 FORCES = tuple(e for e in REGISTRY if e.force is not None)
 DAMPERS = tuple(e for e in REGISTRY if e.damp is not None)
+ADDED = tuple(e for e in REGISTRY if e.added_inertia is not None)
+POST_DRIFT = tuple(e for e in REGISTRY if e.post_drift is not None)
 POTENTIALS = tuple(e for e in REGISTRY if e.potential is not None)
 
 
@@ -40,4 +51,17 @@ Effects = make_dataclass(
 )
 Effects.__module__ = __name__
 
-__all__ = ["REGISTRY", "NAMES", "BY_NAME", "Effect", "Effects", "Key", "FORCES", "DAMPERS", "POTENTIALS"]
+__all__ = [
+    "REGISTRY",
+    "NAMES",
+    "PAPER_EFFECTS",
+    "BY_NAME",
+    "Effect",
+    "Effects",
+    "Key",
+    "FORCES",
+    "DAMPERS",
+    "ADDED",
+    "POST_DRIFT",
+    "POTENTIALS",
+]

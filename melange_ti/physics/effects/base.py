@@ -35,8 +35,17 @@ class Effect:
 
     ``force(a, i) -> ti.Vector([f_z, tau])``  body force and torque on iceberg i
     ``torque``                                 True if ``force`` has a torque component
-    ``damp(a, i)``                             applied to the velocities after the forces
+    ``added_inertia(a, i) -> ti.Vector([m_a, I_a])``
+                                               mass and moment of inertia added to the
+                                               iceberg's own (the water it carries)
+    ``damp(a, i, m, inertia)``                 applied to the velocities after the forces;
+                                               ``m``, ``inertia``: the iceberg's with any
+                                               added inertia
+    ``post_drift(a, i)``                       after the position update
     ``potential(a, i) -> U``                   its potential energy of iceberg i
+
+    ``beyond_paper``: the effect is not in the paper's model; its columns go after the
+    paper's (a line of their own), so a scene that does not name it keeps the paper's row.
 
     A term is compiled into the kernels only when the scene names the effect
     (``ti.static``), so an effect not named costs nothing.
@@ -49,8 +58,11 @@ class Effect:
     body_columns: tuple[Column, ...] = ()
     force: Callable | None = None
     torque: bool = False
+    added_inertia: Callable | None = None
     damp: Callable | None = None
+    post_drift: Callable | None = None
     potential: Callable | None = None
+    beyond_paper: bool = False
 
     def on(self, fx) -> bool:
         """Whether the frozen effect set ``fx`` names this effect (use inside ``ti.static``)."""

@@ -14,7 +14,9 @@ E = "rho_w g w^3"
 
 
 @ti.func
-def damp(a: ti.template(), i):
+def damp(a: ti.template(), i, m, inertia):
+    """``m``, ``inertia``: the iceberg's, with the water's added inertia when that effect is
+    on (the energy of both is what the drag removes)."""
     b = ti.static(a.b)
     dt = a.par[Param.DT]
     vx, vz, om = b[i, Body.VX], b[i, Body.VZ], b[i, Body.OM]
@@ -23,9 +25,7 @@ def damp(a: ti.template(), i):
     b[i, Body.VX] = vx * lin
     b[i, Body.VZ] = vz * lin
     b[i, Body.OM] = om * ang
-    b[i, Body.DRAG_WORK] += 0.5 * b[i, Body.MASS] * (vx * vx + vz * vz) * (1.0 - lin * lin) + 0.5 * b[
-        i, Body.INERTIA
-    ] * om * om * (1.0 - ang * ang)
+    b[i, Body.DRAG_WORK] += 0.5 * m * (vx * vx + vz * vz) * (1.0 - lin * lin) + 0.5 * inertia * om * om * (1.0 - ang * ang)
 
 
 EFFECT = Effect(
