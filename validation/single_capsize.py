@@ -3,7 +3,7 @@ and how long the capsize takes, against the water's coefficients (form drag C_d,
 mass C_a = C_i). Compared with the laboratory (Burton et al. 2012, JGR): the iceberg's peak
 kinetic energy is ~15% of the potential energy released, ~1% goes to surface waves.
 
-    python validation/single_capsize.py [--out validation/results] [--aspects 1.4,2.0]
+    python validation/single_capsize.py --out validation/results --aspects 1.4,2.0 --drag 0,1,2,4,8 --added 0,0.5,1,2
 
 Each run: an upright block (width 1, thickness = aspect) floating at equilibrium, tilted by
 0.01 rad, gravity + buoyancy (+ form_drag, + added_mass), no linear drag, dt = 0.01, until
@@ -103,7 +103,7 @@ def main() -> None:
     aspects = sorted({r["aspect"] for r in rows})
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
     for aspect, ls in zip(aspects, ("-", "--", ":"), strict=False):
-        for ca, color in zip(sorted({r["added_mass"] for r in rows}), ("tab:blue", "tab:orange", "tab:green"), strict=False):
+        for ca, color in zip(sorted({r["added_mass"] for r in rows}), ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple"), strict=False):
             sel = [r for r in rows if r["aspect"] == aspect and r["added_mass"] == ca]
             x = [r["form_drag"] for r in sel]
             axes[0].plot(
