@@ -103,7 +103,11 @@ def main() -> None:
     aspects = sorted({r["aspect"] for r in rows})
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
     for aspect, ls in zip(aspects, ("-", "--", ":"), strict=False):
-        for ca, color in zip(sorted({r["added_mass"] for r in rows}), ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple"), strict=False):
+        for ca, color in zip(
+            sorted({r["added_mass"] for r in rows}),
+            ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple"),
+            strict=False,
+        ):
             sel = [r for r in rows if r["aspect"] == aspect and r["added_mass"] == ca]
             x = [r["form_drag"] for r in sel]
             axes[0].plot(
