@@ -7,8 +7,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .physics.columns import Column
-from .physics.schema import ACCUMULATORS, BODIES, E
+from .physics.schema import ACCUMULATORS, BODIES, ENERGY_LEDGERS, E
 
 
 class Field(NamedTuple):
@@ -21,10 +20,11 @@ class Field(NamedTuple):
 
 
 def _ledger_fields() -> tuple[Field, ...]:
-    """Every energy ledger of the schema (per-body ledgers summed over the icebergs, then the
-    run-wide ones): a ledger column added by an effect appears here with no other edit."""
-    cols: list[Column] = [*BODIES.with_role("ledger"), *ACCUMULATORS.with_role("ledger")]
-    return tuple(Field(c.output, "f8", c.units, c.doc) for c in cols if c.output and c.units == E)
+    """Every energy ledger of the schema (:data:`schema.ENERGY_LEDGERS`: per-body ledgers
+    summed over the icebergs, then the run-wide ones): a ledger column added by an effect
+    appears here with no other edit."""
+    cols = {c.output: c for t in (BODIES, ACCUMULATORS) for c in t.columns if c.output}
+    return tuple(Field(name, "f8", cols[name].units, cols[name].doc) for name in ENERGY_LEDGERS)
 
 
 FIELDS: tuple[Field, ...] = (
@@ -38,7 +38,6 @@ FIELDS: tuple[Field, ...] = (
     Field("impulse_rate", "f8", "rho_w g w^2", "sum of impulses per unit time since the previous diagnostic"),
 )
 NAMES: tuple[str, ...] = tuple(f.name for f in FIELDS)
-ENERGY_LEDGERS: tuple[str, ...] = tuple(f.name for f in _ledger_fields())
 
 
 def capsize_angle(theta: np.ndarray) -> np.ndarray:

@@ -36,7 +36,6 @@ from .physics.schema import (
     LIST_POSES,
     PARAMS,
     SCRATCH,
-    STATE,
     Arrays,
     Body,
     BodyInt,
@@ -123,7 +122,6 @@ class Model:
             acc=alloc(ACCUMULATORS),
         )
         self._out = ti.ndarray(self.real, shape=(n, len(stages.SAMPLE_NAMES)))
-        self.profile_totals: dict[str, float] = {}
 
         a = self.arrays
         p = scene.physics
@@ -173,7 +171,8 @@ class Model:
     def constants(self) -> dict[str, np.ndarray]:
         """Per-iceberg constants ``width, thickness, mass, inertia``, arrays of shape (N,)."""
         rows = self._rows()
-        return {k: rows[:, BODIES.outputs("constant")[k]].copy() for k in CONSTANTS}
+        cols = BODIES.outputs("constant")
+        return {k: rows[:, cols[k]].copy() for k in CONSTANTS}
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
         """Load ``x, z, theta, vx, vz, omega`` (arrays of shape (N,))."""
@@ -249,7 +248,7 @@ class Model:
     def profile(self, steps: int) -> dict[str, float]:
         """Advance ``steps`` steps in the parallel form, stage by stage with a sync after
         each, and return wall seconds per step for each stage (:data:`stages.STAGE_NAMES`)
-        plus ``other`` (the rest of the step). Totals accumulate in ``profile_totals``."""
+        plus ``other`` (the rest of the step)."""
         times = dict.fromkeys(stages.STAGE_NAMES, 0.0)
         total = 0.0
         self.prepare()
@@ -261,8 +260,6 @@ class Model:
             total += time.perf_counter() - t0
         self._check_overflow()
         times["other"] = max(0.0, total - sum(times.values()))
-        for k, v in times.items():
-            self.profile_totals[k] = self.profile_totals.get(k, 0.0) + v
         return {k: v / max(steps, 1) for k, v in times.items()}
 
     def _run(self, stage: stages.Stage, times: dict | None) -> None:
@@ -322,4 +319,4 @@ class Model:
         return pairs, wall
 
 
-__all__ = ["Model", "Totals", "ContactOverflow", "SERIAL_MAX_N", "LISTS_MAX_N", "STATE"]
+__all__ = ["Model", "Totals", "ContactOverflow", "SERIAL_MAX_N", "LISTS_MAX_N"]

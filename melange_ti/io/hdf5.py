@@ -98,6 +98,7 @@ class RunWriter:
 
     def _create(self, attrs: dict, constants: dict[str, np.ndarray]) -> None:
         f = self.f
+        attrs = dict(attrs)  # history is taken out below; the caller's dict stays as it was
         version = attrs.get("melange_ti_version", "")
         f.attrs["title"] = f"melange_ti run: {attrs.get('scene_name', 'scene')}"
         f.attrs["source"] = f"melange_ti {version} (Taichi {attrs.get('taichi_version', '')})".strip()

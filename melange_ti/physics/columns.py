@@ -99,7 +99,6 @@ class Table:
         for k, name in enumerate(names):
             setattr(self.namespace, name, k)
         self.namespace.SIZE = self.size
-        self.namespace.TABLE = self
 
     @property
     def size(self) -> int:

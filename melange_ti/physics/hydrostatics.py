@@ -61,19 +61,6 @@ def submerged_moments(z, c, s, hw, hh, water_level):
 
 
 @ti.func
-def potential_energy(z, c, s, hw, hh, mass, water_level, gravity: ti.template(), buoyancy: ti.template()):
-    """``U = m g (z_G - wl) - rho_w g int_sub (z - wl) dA`` for the effects named (docs/model.md);
-    ``c``, ``s``: cosine and sine of the tilt."""
-    u = 0.0
-    if ti.static(gravity):
-        u += mass * (z - water_level)
-    if ti.static(buoyancy):
-        m = submerged_moments(z, c, s, hw, hh, water_level)
-        u -= m[2] + m[0] * (z - water_level)
-    return u
-
-
-@ti.func
 def _second(px, pz, qx, qz):
     """Contribution of the directed segment p->q to (int x^2 dA, int z^2 dA) of a CCW polygon."""
     cross = px * qz - qx * pz

@@ -287,14 +287,14 @@ def body_width(fx) -> int:
 
 
 def allocated(column: Column, fx) -> bool:
-    """Whether a model with the effect set ``fx`` has ``column`` of ``b``."""
-    return column.owner is None or bool(getattr(fx, column.owner)) or BODIES.index(column.name) < body_width(fx)
+    """Whether a model with the effect set ``fx`` has ``column`` of ``b`` (every column of the
+    model and of the named effects lies below :func:`body_width` by construction)."""
+    return BODIES.index(column.name) < body_width(fx)
 
 
 # What the rest of the code derives from the roles.
-STATE = tuple(BODIES.outputs("state"))  # x, z, vx, vz, omega, theta in row order
 STATE_NAMES = ("x", "z", "theta", "vx", "vz", "omega")  # the file's order (docs/output.md)
-assert sorted(STATE) == sorted(STATE_NAMES)
+assert sorted(BODIES.outputs("state")) == sorted(STATE_NAMES)
 CONSTANTS = tuple(BODIES.outputs("constant"))  # /icebergs: width, thickness, mass, inertia
 BODY_LEDGERS = BODIES.outputs("ledger")  # per-body ledgers, summed into a diagnostic
 ACC_LEDGERS = ACCUMULATORS.outputs("ledger")

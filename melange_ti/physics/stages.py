@@ -116,7 +116,8 @@ DRIFT = Stage("drift", drift_stage, (Part(drift_stage),))
 CORRECTION = Stage("correction", correction.correction_pass, (Part(correction.correction_pass, sequential=True),), needs=contacts)
 
 STEP = (FORCES, Rounds((BROAD, NARROW), (IMPULSES, CHECK), MAX_DETECT, needs=contacts), DRIFT, CORRECTION)
-STAGES = (FORCES, BROAD, NARROW, IMPULSES, CHECK, DRIFT, CORRECTION)
+# every stage once, in the order STEP runs them
+STAGES = tuple(s for part in STEP for s in ((part,) if part.kind == "stage" else (*part.detect, *part.solve)))
 STAGE_NAMES = tuple(s.name for s in STAGES)
 
 
@@ -212,7 +213,6 @@ def orient_all(b: arr):
 # (their output names, from the schema), then the kinetic and potential energy.
 _SAMPLED = [(c.output, k) for k, c in enumerate(BODIES.columns) if c.output and c.role in ("state", "ledger")]
 SAMPLED_COLUMNS = tuple(k for _, k in _SAMPLED)
-SAMPLED_OWNERS = tuple(BODIES.columns[k].owner for k in SAMPLED_COLUMNS)
 
 
 def _sampled(fx) -> tuple:

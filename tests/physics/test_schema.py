@@ -134,7 +134,7 @@ def test_body_row_fits_cache_lines():
 
 def test_derived_lists():
     """State, constants and ledgers come from the roles (SPEC section 5's names)."""
-    assert set(schema.STATE) == {"x", "z", "theta", "vx", "vz", "omega"}
+    assert set(schema.BODIES.outputs("state")) == set(schema.STATE_NAMES) == {"x", "z", "theta", "vx", "vz", "omega"}
     assert schema.CONSTANTS == ("width", "thickness", "mass", "inertia")
     assert "drag_dissipated" in schema.BODY_LEDGERS
     assert set(schema.ENERGY_LEDGERS) == {"drag_dissipated", "added_mass_work", "collision_dissipated", "correction_work"}
