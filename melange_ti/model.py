@@ -68,6 +68,7 @@ class Totals:
 
     collision_dissipated: float
     correction_work: float
+    impulse_offset_work: float
     wall_impulse: float
     impulse_sum: float
     contacts: int

@@ -301,6 +301,7 @@ ENERGY_STYLE = {
     "drag": ("drag dissipated", "tab:blue", "-", 1.2),
     "collision": ("collision dissipated", "tab:red", "-", 1.2),
     "correction": ("overlap-correction work", "tab:purple", "-", 1.2),
+    "impulse_offset": ("impulses' half-kick offset", "tab:green", ":", 1.2),
     "residual": ("residual E(0) − E(t) − Σ dissipated", "0.4", "--", 1.2),
 }
 

@@ -16,8 +16,15 @@ from . import stats
 PAPER_FIG2_TIMES = (100.0, 200.0, 300.0, 400.0)
 BEYOND_PAPER = tuple(n for n in NAMES if n not in PAPER_EFFECTS)
 # every diagnostic (docs/output.md) the figures need: the writer's list minus the extras and
-# the ledgers of effects beyond the paper (absent from older files: counted as 0)
-_OPTIONAL = ("contacts", "wall_force", "impulse_rate", *(c.output for c in BODIES.columns if c.owner in BEYOND_PAPER))
+# the ledgers of effects beyond the paper and those added after 0.2.0 (absent from older
+# files: counted as 0)
+_OPTIONAL = (
+    "contacts",
+    "wall_force",
+    "impulse_rate",
+    "impulse_offset_work",
+    *(c.output for c in BODIES.columns if c.owner in BEYOND_PAPER),
+)
 REQUIRED_DIAGNOSTICS = ("time", *(k for k in DIAGNOSTICS if k not in _OPTIONAL))
 
 

@@ -3,7 +3,8 @@
 Semi-implicit Euler, velocities first: ``v += dt F/m``, ``omega += dt tau/I`` from the
 forces of the effects named (:data:`.effects.FORCES`, summed in registry order), then each
 named damping term (:data:`.effects.DAMPERS`); after contacts, ``x += dt v`` and
-``theta += dt omega``. The drift caches cos and sin of the new tilt (``Body.COS``,
+``theta += dt omega``. When the scene has contacts the kick keeps its change of the
+velocities (``Body.KICK_VX``, ``KICK_VZ``, ``KICK_OM``) for the impulses' energy booking. The drift caches cos and sin of the new tilt (``Body.COS``,
 ``Body.SIN``), the one place a step evaluates trigonometric functions.
 """
 
@@ -53,6 +54,7 @@ def kick(fx: ti.template(), a: ti.template(), i):
     b = ti.static(a.b)
     dt = a.par[Param.DT]
     m, inertia = added_inertia(fx, a, i)
+    v0 = ti.Vector([b[i, Body.VX], b[i, Body.VZ], b[i, Body.OM]])
     fz = 0.0
     tau = 0.0
     for e in ti.static(FORCES):
@@ -68,6 +70,11 @@ def kick(fx: ti.template(), a: ti.template(), i):
     for e in ti.static(DAMPERS):
         if ti.static(e.on(fx)):
             e.damp(a, i, m, inertia)
+    if ti.static(fx.collisions or fx.wall):
+        # the kick's change of the velocities, for the impulses' energy booking (impulses.py)
+        b[i, Body.KICK_VX] = b[i, Body.VX] - v0[0]
+        b[i, Body.KICK_VZ] = b[i, Body.VZ] - v0[1]
+        b[i, Body.KICK_OM] = b[i, Body.OM] - v0[2]
 
 
 @ti.func

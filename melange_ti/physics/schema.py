@@ -55,8 +55,8 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
         Column("VZ", "state", "w / sqrt(w/g)", "velocity, vertical", "vz"),
         Column("OM", "state", "rad / sqrt(w/g)", "angular velocity (counter-clockwise +)", "omega"),
         Column("INV_MASS", "constant", "1 / (rho_w w^2)", "1 / mass, rounded once in the model's precision"),
-        Column("SHIFT_X", "scratch", "w", "correction: push so far this step, x"),
-        Column("SHIFT_Z", "scratch", "w", "correction: push so far this step, z"),
+        Column("SHIFT_X", "scratch", "w", "correction: push so far this step, x (before it: KICK_VX)"),
+        Column("SHIFT_Z", "scratch", "w", "correction: push so far this step, z (before it: KICK_VZ)"),
     )
     line1 = (
         Column("COS", "cache", "1", "cos(theta), set at the drift"),
@@ -73,7 +73,7 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
         Column("MASS", "constant", "rho_w w^2", "mass, density_ratio * width * thickness", "mass"),
         Column("INERTIA", "constant", "rho_w w^4", "moment of inertia, mass (w^2 + h^2) / 12", "inertia"),
         *effect_columns,
-        Column("POT_START", "scratch", E, "correction: potential energy before the body's first push"),
+        Column("POT_START", "scratch", E, "correction: potential energy before the body's first push (before it: KICK_OM)"),
     ]
     # the effects beyond the paper start a line of their own: a scene that names none of
     # them allocates the paper's three lines only (Model), so they cost it nothing
@@ -223,6 +223,14 @@ ACCUMULATORS = Table(
             "energy removed by overlap corrections (minus the potential energy they add)",
             "correction_work",
         ),
+        Column(
+            "OFFSET",
+            "ledger",
+            E,
+            "energy the impulses remove beyond their own dissipation because they act half a kick after the "
+            "time the energy is taken at, J dv_kick / 2 each (-> 0 as dt -> 0)",
+            "impulse_offset_work",
+        ),
         Column("WALL_IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of impulses from the wall", "wall_impulse"),
         Column("IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of all impulses", "impulse_sum"),
     ),
@@ -274,6 +282,13 @@ def _build():
 
 
 BODIES, PARAMS = _build()
+
+# Scratch shared in time: from the kick to the last impulse pass, the columns the correction
+# uses later hold the kick's change of the velocities, which the contact law's energy
+# booking reads (:func:`.impulses.resolve`); the correction zeroes or overwrites them first.
+Body.KICK_VX = Body.SHIFT_X
+Body.KICK_VZ = Body.SHIFT_Z
+Body.KICK_OM = Body.POT_START
 TABLES = (BODIES, BODY_INTS, CONTACTS, LIST_POSES, CELLS, PARAMS, SCRATCH, CONFIG, COUNTERS, ACCUMULATORS)
 
 NAMESPACES = {t.namespace.__name__: t for t in TABLES}
