@@ -4,8 +4,9 @@ Semi-implicit Euler, velocities first: ``v += dt F/m``, ``omega += dt tau/I`` fr
 forces of the effects named (:data:`.effects.FORCES`, summed in registry order), then each
 named damping term (:data:`.effects.DAMPERS`); after contacts, ``x += dt v`` and
 ``theta += dt omega``. When the scene has contacts the kick keeps its change of the
-velocities (``Body.KICK_VX``, ``KICK_VZ``, ``KICK_OM``) for the impulses' energy booking. The drift caches cos and sin of the new tilt (``Body.COS``,
-``Body.SIN``), the one place a step evaluates trigonometric functions.
+velocities (``Body.KICK_VX``, ``KICK_VZ``, ``KICK_OM``) for the impulses' energy booking.
+The drift caches cos and sin of the new tilt (``Body.COS``, ``Body.SIN``), the one place a
+step evaluates trigonometric functions.
 """
 
 import taichi as ti
