@@ -25,9 +25,7 @@ DEEP_FRACTION = 0.1  # a contact still closing by more than this many disc radii
 
 
 @ti.func
-def relative_normal(
-    a: ti.template(), i, j, cx: ti.template(), cz: ti.template(), com: ti.template(), rx1, rz1, rx2, rz2, nx, nz
-):
+def relative_normal(a: ti.template(), i, j, cx: ti.template(), cz: ti.template(), com: ti.template(), rx1, rz1, rx2, rz2, nx, nz):
     """Normal relative value at the contact of the velocity-like columns ``cx, cz, com`` of
     ``b``; j < 0 is the wall (zero)."""
     b = ti.static(a.b)
