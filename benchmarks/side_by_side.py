@@ -10,6 +10,8 @@ old and new ``--repeats`` times so that drifts of the machine hit both alike:
                of the process; ``--duration`` shortens it
 ``n100k``      N = 100,000 paper shelf with tilts of 0.05 rad: ``--warm`` steps, then the
                milliseconds per step of ``--steps`` more (``Model.advance``)
+``start``      a warm start: ``python -m melange_ti run`` of 10 icebergs for one step, wall
+               seconds of the process, after one untimed run per tree fills Taichi's cache
 
 Writes ``side_by_side.csv`` (one row per run) and ``side_by_side.png`` (median per case and
 tree, new / old ratio in the title).
@@ -44,9 +46,9 @@ print((time.perf_counter() - t0) / {steps} * 1e3)
 """
 
 
-def run_paper(tree: Path, duration: float | None) -> float:
+def run_paper(tree: Path, duration: float | None, extra: tuple[str, ...] = ()) -> float:
     with tempfile.TemporaryDirectory() as d:
-        cmd = [sys.executable, "-m", "melange_ti", "run", "--out", str(Path(d) / "paper.h5")]
+        cmd = [sys.executable, "-m", "melange_ti", "run", "--out", str(Path(d) / "paper.h5"), *extra]
         if duration is not None:
             cmd += ["--set", f"time.duration={duration}"]
         t0 = time.perf_counter()
@@ -75,11 +77,17 @@ def main() -> None:
     a = p.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
     rows = []
+    start = ("--set", "shelf.count=10")
     for case in a.cases.split(","):
+        if case == "start":
+            for tree in (a.old, a.new):
+                run_paper(tree.resolve(), 0.01, start)
         for r in range(a.repeats):
             for label, tree in (("old", a.old), ("new", a.new)):
                 if case == "paper":
                     value, unit = run_paper(tree.resolve(), a.duration), "s (whole process)"
+                elif case == "start":
+                    value, unit = run_paper(tree.resolve(), 0.01, start), "s (whole process)"
                 else:
                     value, unit = run_n100k(tree.resolve(), a.warm, a.steps), "ms/step"
                 rows.append({"case": case, "tree": label, "repeat": r, "value": value, "unit": unit})

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
+from . import runtime  # noqa: F401  (imported for its patch: Taichi reuses source-position text)
 from .errors import ContactOverflow
 from .geometry import disc_radius
 from .physics import narrow, stages

@@ -12,6 +12,55 @@ from .errors import ArchError
 _current: tuple | None = None
 
 
+def memoize_source_positions() -> bool:
+    """Make Taichi's front end reuse the source-position text it attaches to every AST node.
+
+    Taichi 1.7 transforms a kernel's Python AST again in every process, even when the
+    compiled code comes from its offline cache, and a ``ti.func`` again at every call site.
+    For each node it formats a message of the node's source lines with ``textwrap``, for
+    error reports: half of a warm start's transform time (docs/performance.md, start-up).
+    The text depends only on the node's place in its function's source, so it is cached on
+    that place; kernels, their cache keys and error messages are unchanged. Returns False
+    (and changes nothing) on a Taichi whose front end does not look as expected."""
+    try:
+        from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
+    except ImportError:
+        return False
+    original = getattr(ASTTransformerContext, "get_pos_info", None)
+    if original is None or getattr(original, "_melange_memoized", False):
+        return original is not None
+
+    cache: dict[tuple, str] = {}
+
+    def get_pos_info(self, node):
+        body = getattr(node, "body", None)
+        first = body[0].lineno if isinstance(body, list) and body and hasattr(body[0], "lineno") else None
+        key = (
+            self.file,
+            self.lineno_offset,
+            self.indent,
+            self.func.func.__name__,
+            len(self.src),
+            type(node).__name__,
+            node.lineno,
+            getattr(node, "end_lineno", None),
+            getattr(node, "col_offset", None),
+            getattr(node, "end_col_offset", None),
+            first,
+        )
+        text = cache.get(key)
+        if text is None:
+            text = cache[key] = original(self, node)
+        return text
+
+    get_pos_info._melange_memoized = True
+    ASTTransformerContext.get_pos_info = get_pos_info
+    return True
+
+
+memoize_source_positions()
+
+
 def _check_gpu() -> None:
     """Refuse ``--arch gpu`` in one line where no GPU backend works. Taichi's own attempt can
     kill the process (``libcuda.so`` missing, then a segmentation fault in the Vulkan

@@ -88,11 +88,12 @@ def accuracy_plan(o: Options) -> AccuracyPlan:
         )
     return AccuracyPlan(
         dts=(0.04, 0.02, 0.01, 0.005, 0.0025),
-        discs=(12, 28, 60),
+        discs=(12, 28, 60, 124),
         precisions=("f64", "f32"),
         passes=(1, 2, 4),
         base=dict(dt=0.01, discs=28, precision="f64", passes=1),
-        reference=dict(dt=0.0025, discs=60, precision="f64", passes=1),
+        # 124 discs: where the capsize statistics converge in the disc count (docs/validation.md)
+        reference=dict(dt=0.0025, discs=124, precision="f64", passes=1),
         n=400,
         seeds=o.seeds or 4,
         duration=o.duration or 400.0,
