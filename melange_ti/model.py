@@ -7,7 +7,8 @@ array is allocated and no contact kernel runs. The step is the stage list of
 :mod:`melange_ti.physics.stages`.
 
 For small N on the CPU one kernel call runs many steps with every loop serial (no launch
-cost); for large N each stage is launched as parallel kernels. Both give the same bits.
+cost); for large N each stage is launched as parallel kernels. Both give the same bits; in
+between, with several threads, the first advance times both and keeps the faster.
 """
 
 from __future__ import annotations
@@ -53,6 +54,15 @@ from .scene import Icebergs, Scene
 # 40,000 to 70,000, and the parallel form was level or faster at 100,000.
 SERIAL_MAX_N = 50000
 
+# Between these N, with more than one CPU thread, ``mode="auto"`` measures instead of
+# guessing: the first advance runs a few steps in each form and keeps the faster
+# (:meth:`Model.advance`). Where the serial form wins depends on the thread count and the
+# machine (on 2 cores it won up to ~50,000; a many-core machine's parallel form wins far
+# lower). Below CALIBRATE_MIN_N the serial form always wins: a parallel step costs ~15
+# kernel launches of ~10 us each, more than the whole serial step of a few thousand bodies.
+CALIBRATE_MIN_N = 2000
+CALIBRATE_STEPS = 8  # timed steps per form, after one untimed step each (compilation)
+
 # The narrow phase's candidate lists (1 kB per iceberg) are kept at or below this N, in the
 # serial form. Measured on 2 cores, active state: they cut the step by ~20% at N = 400 and
 # 4000 (all in cache), but were level or slower at 40,000 (serial) and slower at 100,000
@@ -90,9 +100,15 @@ class Model:
         self.n = n = bergs.count
         self.real = ti.f32 if scene.precision == "f32" else ti.f64
         self.np_real = np.float32 if scene.precision == "f32" else np.float64
+        self.calibration: dict[str, float] | None = None  # ms/step of each form, if measured
+        self._calibrate = False
         if mode == "auto":
-            on_cpu = ti.lang.impl.current_cfg().arch in (ti.x64, ti.arm64)
+            cfg = ti.lang.impl.current_cfg()
+            on_cpu = cfg.arch in (ti.x64, ti.arm64)
+            threads = int(cfg.cpu_max_num_threads) if on_cpu else 0
             mode = "serial" if on_cpu and n <= SERIAL_MAX_N else "parallel"
+            # measured at the first advance (serial meanwhile: its allocation, lists included)
+            self._calibrate = on_cpu and threads > 1 and CALIBRATE_MIN_N <= n <= SERIAL_MAX_N
         if mode not in ("serial", "parallel"):
             raise ValueError(f"mode must be 'auto', 'serial' or 'parallel', not {mode!r}")
         self.mode = mode
@@ -239,6 +255,8 @@ class Model:
         """Advance ``steps`` time steps (no I/O; one small read of the overflow flag)."""
         if steps <= 0:
             return
+        if self._calibrate and steps >= 2 * (CALIBRATE_STEPS + 1):
+            steps -= self._choose_mode()
         if self.mode == "serial":
             stages.steps_serial(self.fx, steps, *self.arrays)
         else:
@@ -246,6 +264,24 @@ class Model:
             for _ in range(steps):
                 self._step_parallel(None)
         self._check_overflow()
+
+    def _choose_mode(self) -> int:
+        """Run one untimed and ``CALIBRATE_STEPS`` timed steps in each form and keep the
+        faster; the steps are the run's own (both forms give the same bits). Returns the
+        number of steps taken."""
+        self._calibrate = False
+        per_step = {}
+        for mode in ("serial", "parallel"):
+            self.mode = mode
+            self.advance(1)
+            ti.sync()
+            t0 = time.perf_counter()
+            self.advance(CALIBRATE_STEPS)
+            ti.sync()
+            per_step[mode] = (time.perf_counter() - t0) / CALIBRATE_STEPS * 1e3
+        self.mode = min(per_step, key=per_step.get)
+        self.calibration = per_step
+        return 2 * (CALIBRATE_STEPS + 1)
 
     def profile(self, steps: int) -> dict[str, float]:
         """Advance ``steps`` steps in the parallel form, stage by stage with a sync after
@@ -321,4 +357,4 @@ class Model:
         return pairs, wall
 
 
-__all__ = ["Model", "Totals", "ContactOverflow", "SERIAL_MAX_N", "LISTS_MAX_N"]
+__all__ = ["Model", "Totals", "ContactOverflow", "SERIAL_MAX_N", "LISTS_MAX_N", "CALIBRATE_MIN_N"]

@@ -165,3 +165,30 @@ def test_set_state_refreshes_cached_tilt(mode):
     fresh.advance(200)
     a, b = used.sample(), fresh.sample()
     assert_bitwise({k: a[k] for k in STATE}, {k: b[k] for k in STATE}, f"{mode}: reused vs fresh model")
+
+
+def test_auto_mode_calibrates_between_the_thresholds_and_keeps_the_bits():
+    """With several threads and CALIBRATE_MIN_N <= N <= SERIAL_MAX_N, ``mode="auto"`` times
+    both forms on the run's first steps and keeps the faster; whichever it keeps, the
+    state is the serial form's, bit for bit. Below CALIBRATE_MIN_N it does not measure."""
+    import taichi as ti
+
+    from melange_ti.model import CALIBRATE_MIN_N, CALIBRATE_STEPS
+
+    assert ti.lang.impl.current_cfg().cpu_max_num_threads > 1, "run with MELANGE_TEST_THREADS > 1"
+    n = CALIBRATE_MIN_N
+    sc = scene_mod.load(None, overrides=[("shelf.count", n), ("shelf.tilt", 0.2), ("shelf.gap", 0.3), ("contacts.discs", 12)])
+    steps = 2 * (CALIBRATE_STEPS + 1) + 30
+    auto = Model(sc, mode="auto")
+    auto.advance(steps)
+    assert auto.calibration is not None and set(auto.calibration) == {"serial", "parallel"}
+    assert auto.mode == min(auto.calibration, key=auto.calibration.get)
+    assert all(v > 0 for v in auto.calibration.values())
+    serial = Model(sc, mode="serial")
+    serial.advance(steps)
+    assert serial.calibration is None
+    assert_bitwise(serial.sample(), auto.sample(), f"auto ({auto.mode}) vs serial")
+    assert serial.totals() == auto.totals()
+    small = Model(scene_mod.load(None, overrides=[("shelf.count", n - 1)]), mode="auto")
+    small.advance(steps)
+    assert small.calibration is None and small.mode == "serial"
