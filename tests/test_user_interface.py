@@ -314,4 +314,3 @@ def test_worked_example_runs(tmp_path):
     assert (tmp_path / "drag_sensitivity.png").stat().st_size > 10_000
     lines = [ln for ln in p.stdout.splitlines() if ln.startswith("drag")]
     assert len(lines) == 2, p.stdout
-
