@@ -114,6 +114,7 @@ class Model:
         self.mode = mode
         self.contacts = self.fx.contacts
         slots = scene.contacts.max_partners if self.fx.collisions else 1
+        self._repeats = {"PASSES": scene.contacts.contact_passes}
         ncells = 1 << max(2, math.ceil(math.log2(max(n, 4)))) if self.fx.collisions else 4
         # candidate lists for the narrow phase, used where they were measured to pay (see
         # LISTS_MAX_N). Contacts are bit-for-bit the same with and without them.
@@ -128,7 +129,7 @@ class Model:
         self.arrays = Arrays(
             b=ti.ndarray(self.real, shape=(n, body_width(self.fx))),
             bi=alloc(BODY_INTS, n),
-            cd=alloc(CONTACTS, slots, nc),
+            cd=alloc(CONTACTS, slots + 1, nc),  # slot `slots`: the wall contact's deferred terms (islands)
             cp=ti.ndarray(ti.i32, shape=(slots, nc)),
             nl=ti.ndarray(ti.i32, shape=(nlists, narrow.LIST_WIDTH)),
             nr=alloc(LIST_POSES, nlists, narrow.ENTRIES),
@@ -234,7 +235,10 @@ class Model:
                 rows[:, col] = acc[name]
         self.arrays.b.from_numpy(rows)
         self.arrays.acc.from_numpy(np.asarray(acc["acc"], dtype=np.float64))
-        self.arrays.cnt.from_numpy(np.asarray(acc["counters"], dtype=np.int64))
+        counters = np.zeros(COUNTERS.size, dtype=np.int64)
+        stored = np.asarray(acc["counters"], dtype=np.int64)[: COUNTERS.size]
+        counters[: stored.size] = stored  # a checkpoint from before a counter was added
+        self.arrays.cnt.from_numpy(counters)
 
     def clear_candidate_lists(self) -> None:
         """Forget the narrow phase's candidate lists: the next detection searches every pair
@@ -302,9 +306,10 @@ class Model:
 
     def _run(self, stage: stages.Stage, times: dict | None) -> None:
         t0 = time.perf_counter() if times is not None else 0.0
-        for part in stage.parallel:
-            if part.needs(self.fx):
-                stages.run_part(self.fx, part, *self.arrays)
+        for _ in range(self._repeats[stage.repeat] if stage.repeat else 1):
+            for part in stage.parallel:
+                if part.needs(self.fx):
+                    stages.run_part(self.fx, part, *self.arrays)
         if times is not None:
             ti.sync()
             times[stage.name] += time.perf_counter() - t0

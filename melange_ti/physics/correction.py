@@ -76,40 +76,57 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end):
 
 
 @ti.func
-def correction_pass(fx: ti.template(), a: ti.template()):
+def prepare_body(fx: ti.template(), a: ti.template(), i):
+    """Before the sweeps: body i not pushed yet, and each of its contacts' end-of-step gap
+    (stored in ``Contact.GAP``), once, before anything is pushed."""
     b = ti.static(a.b)
     cd = ti.static(a.cd)
+    b[i, Body.SHIFT_X] = 0.0
+    b[i, Body.SHIFT_Z] = 0.0
+    a.bi[i, BodyInt.PUSHED] = -1  # the last sweep that moved body i
+    if ti.static(fx.collisions):
+        for s in range(a.bi[i, BodyInt.NCONTACT]):
+            cd[s, i, Contact.GAP] = predicted_gap(
+                a,
+                i,
+                a.cp[s, i],
+                cd[s, i, Contact.PX],
+                cd[s, i, Contact.PZ],
+                cd[s, i, Contact.NX],
+                cd[s, i, Contact.NZ],
+                cd[s, i, Contact.GAP],
+            )
+
+
+@ti.func
+def sweep_body(fx: ti.template(), a: ti.template(), sweep, i):
+    """One sweep's pushes of body i's contacts (wall, then partners j > i ascending); after
+    the first sweep only contacts of a body moved in the previous one. Returns how many
+    pushed."""
+    cd = ti.static(a.cd)
+    since = sweep - 1
+    pushed = 0
+    if ti.static(fx.wall):
+        if a.bi[i, BodyInt.WALL_ON] and a.bi[i, BodyInt.PUSHED] >= since:
+            pushed += push(fx, a, sweep, i, -1, 1.0, 0.0, 0.0)
+    if ti.static(fx.collisions):
+        for s in range(a.bi[i, BodyInt.NCONTACT]):
+            j = a.cp[s, i]
+            if ti.max(a.bi[i, BodyInt.PUSHED], a.bi[j, BodyInt.PUSHED]) >= since:
+                pushed += push(fx, a, sweep, i, j, cd[s, i, Contact.NX], cd[s, i, Contact.NZ], cd[s, i, Contact.GAP])
+    return pushed
+
+
+@ti.func
+def correction_pass(fx: ti.template(), a: ti.template()):
+    b = ti.static(a.b)
     n = b.shape[0]
     for i in range(n):
-        b[i, Body.SHIFT_X] = 0.0
-        b[i, Body.SHIFT_Z] = 0.0
-        a.bi[i, BodyInt.PUSHED] = -1  # the last sweep that moved body i
-        if ti.static(fx.collisions):
-            # each contact's end-of-step gap, once, before anything is pushed (stored in Contact.GAP)
-            for s in range(a.bi[i, BodyInt.NCONTACT]):
-                cd[s, i, Contact.GAP] = predicted_gap(
-                    a,
-                    i,
-                    a.cp[s, i],
-                    cd[s, i, Contact.PX],
-                    cd[s, i, Contact.PZ],
-                    cd[s, i, Contact.NX],
-                    cd[s, i, Contact.NZ],
-                    cd[s, i, Contact.GAP],
-                )
+        prepare_body(fx, a, i)
     for sweep in range(MAX_CORRECT):
         pushed = 0
-        # after the first sweep, only contacts of a body moved since the previous sweep
-        since = sweep - 1
         for i in range(n):
-            if ti.static(fx.wall):
-                if a.bi[i, BodyInt.WALL_ON] and a.bi[i, BodyInt.PUSHED] >= since:
-                    pushed += push(fx, a, sweep, i, -1, 1.0, 0.0, 0.0)
-            if ti.static(fx.collisions):
-                for s in range(a.bi[i, BodyInt.NCONTACT]):
-                    j = a.cp[s, i]
-                    if ti.max(a.bi[i, BodyInt.PUSHED], a.bi[j, BodyInt.PUSHED]) >= since:
-                        pushed += push(fx, a, sweep, i, j, cd[s, i, Contact.NX], cd[s, i, Contact.NZ], cd[s, i, Contact.GAP])
+            pushed += sweep_body(fx, a, sweep, i)
         if pushed == 0:
             break
     # the corrections' change of potential energy, per moved body, in body order

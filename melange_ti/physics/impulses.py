@@ -46,8 +46,13 @@ def normal_speed(a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz):
 
 
 @ti.func
-def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap):
-    """Apply the impulse of the contact law to the pair (i, j) (j < 0: the wall) if it approaches."""
+def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot, defer: ti.template()):
+    """Apply the impulse of the contact law to the pair (i, j) (j < 0: the wall) if it approaches.
+
+    Its energy terms and impulse go to the run-wide sums (``acc``) at once, or, with
+    ``defer`` (islands solved side by side, :mod:`.islands`), to the contact's ``DEF_*``
+    columns at ``[slot, i]``, which :func:`book` adds to ``acc`` afterwards in this pass's
+    order, so that the sums are the same bits."""
     b = ti.static(a.b)
     rx1 = px - b[i, Body.X]
     rz1 = pz - b[i, Body.Z]
@@ -77,40 +82,84 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap):
             b[j, Body.VX] -= jn * nx / m2
             b[j, Body.VZ] -= jn * nz / m2
             b[j, Body.OM] -= a2 * jn / i2
-        else:
-            a.acc[Acc.WALL_IMPULSE] += jn
-        a.acc[Acc.COLLISION] += 0.5 * (1.0 - e * e) * vn * vn / kk
+        dissipated = 0.5 * (1.0 - e * e) * vn * vn / kk
         # the step's energy is the kinetic energy at the mid-kick velocities, half a kick
         # before the ones the impulse acts on: book the difference (docs/model.md)
         kick_vn = relative_normal(a, i, j, Body.KICK_VX, Body.KICK_VZ, Body.KICK_OM, rx1, rz1, rx2, rz2, nx, nz)
-        a.acc[Acc.OFFSET] += 0.5 * jn * kick_vn
-        a.acc[Acc.IMPULSE] += jn
+        if ti.static(defer):
+            a.cd[slot, i, Contact.DEF_COLLISION] = dissipated
+            a.cd[slot, i, Contact.DEF_OFFSET] = 0.5 * jn * kick_vn
+            a.cd[slot, i, Contact.DEF_IMPULSE] = jn
+        else:
+            if j < 0:
+                a.acc[Acc.WALL_IMPULSE] += jn
+            a.acc[Acc.COLLISION] += dissipated
+            a.acc[Acc.OFFSET] += 0.5 * jn * kick_vn
+            a.acc[Acc.IMPULSE] += jn
         a.cnt[Counter.CONTACTS] += 1
 
 
 @ti.func
-def impulse_pass(fx: ti.template(), a: ti.template()):
+def body_contacts(fx: ti.template(), a: ti.template(), i, defer: ti.template()):
+    """Body i's contacts in the pass's order: its wall contact, then its partners j > i
+    ascending. Deferred terms of the wall contact go to slot ``Config.SLOTS``."""
     b = ti.static(a.b)
+    if ti.static(fx.wall):
+        if a.bi[i, BodyInt.WALL_ON]:
+            wall_slot = ti.cast(a.cfg[Config.SLOTS], ti.i32)
+            resolve(fx, a, i, -1, a.par[Param.WALL_X], b[i, Body.WALL_PZ], 1.0, 0.0, b[i, Body.WALL_GAP], wall_slot, defer)
+    if ti.static(fx.collisions):
+        for s in range(a.bi[i, BodyInt.NCONTACT]):
+            cd = ti.static(a.cd)
+            resolve(
+                fx,
+                a,
+                i,
+                a.cp[s, i],
+                cd[s, i, Contact.PX],
+                cd[s, i, Contact.PZ],
+                cd[s, i, Contact.NX],
+                cd[s, i, Contact.NZ],
+                cd[s, i, Contact.GAP],
+                s,
+                defer,
+            )
+
+
+@ti.func
+def impulse_pass(fx: ti.template(), a: ti.template()):
     n = ti.cast(a.cfg[Config.N], ti.i32)
     for _ in range(ti.cast(a.cfg[Config.PASSES], ti.i32)):
         for i in range(n):
-            if ti.static(fx.wall):
-                if a.bi[i, BodyInt.WALL_ON]:
-                    resolve(fx, a, i, -1, a.par[Param.WALL_X], b[i, Body.WALL_PZ], 1.0, 0.0, b[i, Body.WALL_GAP])
-            if ti.static(fx.collisions):
-                for s in range(a.bi[i, BodyInt.NCONTACT]):
-                    cd = ti.static(a.cd)
-                    resolve(
-                        fx,
-                        a,
-                        i,
-                        a.cp[s, i],
-                        cd[s, i, Contact.PX],
-                        cd[s, i, Contact.PZ],
-                        cd[s, i, Contact.NX],
-                        cd[s, i, Contact.NZ],
-                        cd[s, i, Contact.GAP],
-                    )
+            body_contacts(fx, a, i, False)
+
+
+@ti.func
+def book_one(a: ti.template(), s, i, wall: ti.template()):
+    cd = ti.static(a.cd)
+    jn = cd[s, i, Contact.DEF_IMPULSE]
+    if jn > 0:  # an impulse was applied (J > 0 whenever one is)
+        if ti.static(wall):
+            a.acc[Acc.WALL_IMPULSE] += jn
+        a.acc[Acc.COLLISION] += cd[s, i, Contact.DEF_COLLISION]
+        a.acc[Acc.OFFSET] += cd[s, i, Contact.DEF_OFFSET]
+        a.acc[Acc.IMPULSE] += jn
+        cd[s, i, Contact.DEF_IMPULSE] = 0.0
+
+
+@ti.func
+def book(fx: ti.template(), a: ti.template()):
+    """Add the deferred terms of one island-parallel pass to ``acc`` in the sequential
+    pass's order (body ascending: wall, then partners), clearing them: the same bits as
+    :func:`impulse_pass`'s own sums."""
+    n = ti.cast(a.cfg[Config.N], ti.i32)
+    for i in range(n):
+        if ti.static(fx.wall):
+            if a.bi[i, BodyInt.WALL_ON]:
+                book_one(a, ti.cast(a.cfg[Config.SLOTS], ti.i32), i, True)
+        if ti.static(fx.collisions):
+            for s in range(a.bi[i, BodyInt.NCONTACT]):
+                book_one(a, s, i, False)
 
 
 @ti.func

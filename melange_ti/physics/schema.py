@@ -112,6 +112,10 @@ BODY_INTS = Table(
         Column("SORTED", "scratch", "1", "broad phase: bodies in cell order (indexed by slot, not body)"),
         Column("PUSHED", "scratch", "1", "correction: the last sweep that moved the body (-1: none)"),
         Column("NEXT_ENTRY", "scratch", "1", "candidate lists: the entry a new partner takes (round robin)"),
+        Column("ISLAND", "scratch", "1", "islands: the body's root (lowest index of its island)"),
+        Column("ISLAND_NUM", "scratch", "1", "islands: at a root, its island's number (islands by root ascending)"),
+        Column("ISLAND_START", "scratch", "1", "islands: indexed by island number, where its bodies start in ISLAND_ORDER"),
+        Column("ISLAND_ORDER", "scratch", "1", "islands: bodies grouped by island, ascending within (indexed by position)"),
     ),
     BodyInt,
 )
@@ -129,6 +133,11 @@ CONTACTS = Table(
         Column("NX", "scratch", "1", "unit normal from j to i, x"),
         Column("NZ", "scratch", "1", "unit normal from j to i, z"),
         Column("GAP", "scratch", "w", "gap when found; the correction replaces it by the predicted end-of-step gap"),
+        # islands solved side by side (islands.py): an impulse's terms, kept until added to
+        # acc in the sequential order; the wall contact's at slot Config.SLOTS
+        Column("DEF_COLLISION", "scratch", E, "islands: the impulse's own dissipation, until booked"),
+        Column("DEF_OFFSET", "scratch", E, "islands: the impulse's half-kick offset, until booked"),
+        Column("DEF_IMPULSE", "scratch", "rho_w w^2 sqrt(g w)", "islands: the impulse J (0: none or booked)"),
     ),
     Contact,
 )
@@ -204,6 +213,7 @@ COUNTERS = Table(
         Column("CONTACTS", "counter", "1", "impulses applied since t = 0", "contacts"),
         Column("OVERFLOW", "counter", "1", "1 if a body had more partners than slots"),
         Column("AGAIN", "counter", "1", "after an impulse pass: 2 detect again, 1 pass again, 0 done"),
+        Column("ISLANDS", "counter", "1", "islands of the last detection (parallel form)"),
     ),
     Counter,
 )

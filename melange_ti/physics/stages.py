@@ -6,6 +6,7 @@ The step is written once, as data (:data:`STEP`)::
     rounds, at most MAX_DETECT, if contacts:
         broad     (first round, and again     reach and cell list              (broad.py)
         narrow     when a body outran it)     contacts from the discs, wall    (narrow.py)
+        islands                               parallel form: touching groups   (islands.py)
         impulses                              sequential impulse pass          (impulses.py)
         check                                 again? Counter.AGAIN             (impulses.py)
     drift                                    x += dt v, theta += dt omega      (forces.py)
@@ -16,8 +17,9 @@ and run in one of two forms that give the same bits:
 - **serial** (:func:`steps_serial`): many whole steps in one kernel call, every loop serial
   (no launch cost: the form for small N on the CPU);
 - **parallel**: each stage's parts launched as kernels (:func:`run_part`), their outer loop
-  over bodies parallel, except the parts whose order is the physics (``sequential``: the
-  impulse pass, the correction, the cell scan). :class:`melange_ti.model.Model` walks
+  parallel (over bodies, or over islands for the impulse pass and the correction's sweeps:
+  :mod:`.islands`), except the parts that must be sequential (``sequential``: the cell
+  scan, finding the islands, adding the energy terms to the run-wide sums in order). :class:`melange_ti.model.Model` walks
   :data:`STEP` and can time every stage (:meth:`Model.profile`, like Box2D's profile).
 
 Kernels take the model's ndarrays (:class:`.schema.Arrays`) and the frozen effect set ``fx``
@@ -32,7 +34,7 @@ from dataclasses import dataclass
 
 import taichi as ti
 
-from . import broad, correction, forces, impulses, narrow
+from . import broad, correction, forces, impulses, islands, narrow
 from .schema import BODIES, Arrays, Counter, allocated
 
 MAX_DETECT = 16  # rounds of (detection,) impulse pass and check per step
@@ -63,13 +65,15 @@ class Part:
 @dataclass(frozen=True)
 class Stage:
     """A named stage: ``serial(fx, a)`` is the whole stage with serial loops (inside the
-    fused kernel); ``parallel`` its parts as kernels; ``needs(fx)``: run only when true."""
+    fused kernel); ``parallel`` its parts as kernels, run ``repeat`` times in turn (a
+    :class:`.schema.Config` slot, or once); ``needs(fx)``: run only when true."""
 
     name: str
     serial: Callable
     parallel: tuple[Part, ...]
     needs: Callable = always
     kind: str = "stage"
+    repeat: str | None = None
 
 
 @dataclass(frozen=True)
@@ -110,12 +114,36 @@ BROAD = Stage(
     ),
 )
 NARROW = Stage("narrow", narrow.narrow_stage, (Part(narrow.narrow_stage),))
-IMPULSES = Stage("impulses", impulses.impulse_pass, (Part(impulses.impulse_pass, sequential=True),))
+
+
+@ti.func
+def nothing(fx: ti.template(), a: ti.template()):
+    pass
+
+
+# the serial form solves everything in one sequential pass and needs no islands
+ISLANDS = Stage("islands", nothing, (Part(islands.label, sequential=True),))
+IMPULSES = Stage(
+    "impulses",
+    impulses.impulse_pass,
+    (Part(islands.impulse_islands), Part(impulses.book, sequential=True)),
+    repeat="PASSES",
+)
 CHECK = Stage("check", impulses.check, (Part(impulses.check),))
 DRIFT = Stage("drift", drift_stage, (Part(drift_stage),))
-CORRECTION = Stage("correction", correction.correction_pass, (Part(correction.correction_pass, sequential=True),), needs=contacts)
+CORRECTION = Stage(
+    "correction",
+    correction.correction_pass,
+    (
+        Part(islands.prepare_all),
+        Part(islands.correct_islands),
+        Part(islands.correction_energy),
+        Part(islands.book_correction, sequential=True),
+    ),
+    needs=contacts,
+)
 
-STEP = (FORCES, Rounds((BROAD, NARROW), (IMPULSES, CHECK), MAX_DETECT, needs=contacts), DRIFT, CORRECTION)
+STEP = (FORCES, Rounds((BROAD, NARROW, ISLANDS), (IMPULSES, CHECK), MAX_DETECT, needs=contacts), DRIFT, CORRECTION)
 # every stage once, in the order STEP runs them
 STAGES = tuple(s for part in STEP for s in ((part,) if part.kind == "stage" else (*part.detect, *part.solve)))
 STAGE_NAMES = tuple(s.name for s in STAGES)

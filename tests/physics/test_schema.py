@@ -137,7 +137,13 @@ def test_derived_lists():
     assert set(schema.BODIES.outputs("state")) == set(schema.STATE_NAMES) == {"x", "z", "theta", "vx", "vz", "omega"}
     assert schema.CONSTANTS == ("width", "thickness", "mass", "inertia")
     assert "drag_dissipated" in schema.BODY_LEDGERS
-    assert set(schema.ENERGY_LEDGERS) == {"drag_dissipated", "added_mass_work", "collision_dissipated", "correction_work"}
+    assert set(schema.ENERGY_LEDGERS) == {
+        "drag_dissipated",
+        "added_mass_work",
+        "collision_dissipated",
+        "impulse_offset_work",
+        "correction_work",
+    }
     from melange_ti import diagnostics
 
     assert set(schema.ENERGY_LEDGERS) <= set(diagnostics.NAMES)
