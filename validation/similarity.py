@@ -12,7 +12,8 @@ drags (``physics.drag = physics.angular_drag = c``) and the long paper ensemble.
 
 Writes ``similarity.png`` (the curves against t and against the scaled times),
 ``end_state.png`` (the long ensemble: capsize, front and kinetic energy to the end) and
-``similarity.txt`` (misfits, fitted laws with bootstrap uncertainties, end-state numbers).
+``similarity.txt`` (misfits, fitted laws with bootstrap uncertainties, end-state numbers,
+the energy budget's residual over the long runs).
 """
 
 from __future__ import annotations
@@ -79,7 +80,7 @@ def capsize_law(runs):
     return sim.fit_line(np.concatenate(xs), np.concatenate(ys))
 
 
-def end_state(group, drag):
+def end_state(group):
     """Per run: first time all have capsized, leading edge then and at the end, kinetic
     energy's decay rate after it (against 2 c for linear drag alone)."""
     rows = []
@@ -135,21 +136,59 @@ def fig_similarity(runs, misfits, law_l, out):
     plt.close(fig)
 
 
-def fig_end_state(group, drag, out):
-    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True, layout="constrained")
-    for d in group:
-        t = d["time"]
-        axes[0].plot(t, d["capsized_fraction"], lw=0.8)
-        axes[1].plot(t, d["leading_edge"], lw=0.8)
-        ke = np.where(d["kinetic_energy"] > 0, d["kinetic_energy"], np.nan)
-        axes[2].semilogy(t, ke, lw=0.8)
-    axes[0].set_ylabel("capsized fraction")
-    axes[1].set_ylabel("leading edge (widths)")
-    axes[2].set_ylabel("kinetic energy (ρ_w g w³)")
-    axes[2].set_xlabel(f"t (sqrt(w/g); 1 = 2.67 s at w = 70 m), drag c = {drag:g}")
-    for ax in axes:
-        ax.grid(alpha=0.3)
-    fig.suptitle(f"The paper scene to its end state: {len(group)} seeds", fontsize=10)
+def residual_lines(group, drag, times=(300.0, 1000.0, 8000.0, 60000.0)):
+    """The energy budget's residual (and what it was without the impulses' offset term, and
+    the correction work) as shares of the released energy, mean ± SD over the runs."""
+    lines = []
+    for t_at in times:
+        vals = []
+        for d in group:
+            t = d["time"]
+            if t[-1] < t_at:
+                continue
+            b = stats.energy_budget(d)
+            i = int(np.searchsorted(t, t_at))
+            rel = b["released"][i]
+            res = b["residual"][: i + 1]
+            vals.append(
+                (res[-1] / rel, np.abs(res).max() / rel, (res[-1] + b["impulse_offset"][i]) / rel, b["correction"][i] / rel)
+            )
+        if not vals:
+            continue
+        v = np.array(vals)
+        m, sd = v.mean(axis=0), v.std(axis=0, ddof=1) if len(v) > 1 else np.zeros(4)
+        lines.append(
+            f"drag {drag:g}, t = {t_at:g} ({len(v)} runs): residual {m[0]:+.4%} ± {sd[0]:.4%}, largest |residual| up to t "
+            f"{v[:, 1].max():.4%}, without the offset term {m[2]:+.3%} ± {sd[2]:.3%}, correction work {m[3]:+.2%} ± {sd[3]:.2%}"
+        )
+    return lines
+
+
+def smooth(t, y, window):
+    """Moving average of ``y`` over ``window`` time units (uniform sampling assumed)."""
+    k = max(1, int(round(window / (t[1] - t[0])))) if len(t) > 1 else 1
+    return np.convolve(y, np.ones(k) / k, mode="same")
+
+
+def fig_end_state(groups, out):
+    """Capsized fraction, leading edge and kinetic energy (moving average over 500 time
+    units) of each run, one column per drag."""
+    fig, axes = plt.subplots(3, len(groups), figsize=(7 * len(groups), 9), squeeze=False, layout="constrained")
+    for col, (drag, group) in enumerate(groups.items()):
+        for d in group:
+            t = d["time"]
+            axes[0, col].plot(t, d["capsized_fraction"], lw=0.8)
+            axes[1, col].plot(t, d["leading_edge"], lw=0.8)
+            ke = smooth(t, d["kinetic_energy"], 500.0)
+            axes[2, col].semilogy(t, np.where(ke > 0, ke, np.nan), lw=0.8)
+        axes[0, col].set_title(f"drag = angular_drag = {drag:g}: {len(group)} seeds", fontsize=10)
+        axes[0, col].set_ylabel("capsized fraction")
+        axes[1, col].set_ylabel("leading edge (widths)")
+        axes[2, col].set_ylabel("kinetic energy, 500-unit mean (ρ_w g w³)")
+        axes[2, col].set_xlabel("t (sqrt(w/g); 1 = 2.67 s at w = 70 m)")
+        for ax in axes[:, col]:
+            ax.grid(alpha=0.3)
+    fig.suptitle("The paper scene run on towards its end state", fontsize=10)
     fig.savefig(out / "end_state.png", dpi=110)
     plt.close(fig)
 
@@ -158,7 +197,7 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("runs", nargs="+")
     p.add_argument("--out", type=Path, required=True)
-    p.add_argument("--long-drag", type=float, default=0.01, help="the drag of the long ensemble")
+    p.add_argument("--end-drags", default="0.01,0.001", help="drags whose runs show the end state")
     a = p.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     runs = load(a.runs)
@@ -184,19 +223,21 @@ def main(argv=None):
     l_full = (1.0 - law_f[0]) / law_f[1]
     lines.append(f"all capsized at L = {l_full:.1f}, t / c = {(l_full / law_l[0]) ** (1 / law_l[1]):.4g} (from the fits)")
     fig_similarity(runs, misfits, law_l, a.out)
-    if a.long_drag in runs:
-        group = runs[a.long_drag]
-        rows = end_state(group, a.long_drag)
+    ends = {c: runs[c] for c in (float(v) for v in a.end_drags.split(",")) if c in runs}
+    for c, group in ends.items():
+        rows = end_state(group)
         for k, r in enumerate(rows):
-            lines.append(f"long run {k + 1}: " + ", ".join(f"{key} {v:.4g}" for key, v in r.items()))
+            lines.append(f"drag {c:g} run {k + 1}: " + ", ".join(f"{key} {v:.4g}" for key, v in r.items()))
         for key in ("t_all", "L_all", "L_end", "f_end", "ke_rate", "front_speed_before", "front_speed_after"):
             v = np.array([r.get(key, np.nan) for r in rows])
             ok = np.isfinite(v)
             if ok.any():
                 sd = v[ok].std(ddof=1) if ok.sum() > 1 else 0.0
-                lines.append(f"long ensemble {key}: mean {v[ok].mean():.4g} ± {sd:.3g} ({ok.sum()} runs)")
-        lines.append(f"kinetic energy decay rate of linear drag alone: 2 c = {2 * a.long_drag:g}")
-        fig_end_state(group, a.long_drag, a.out)
+                lines.append(f"drag {c:g} ensemble {key}: mean {v[ok].mean():.4g} ± {sd:.3g} ({ok.sum()} runs)")
+        lines.append(f"drag {c:g}: kinetic energy decay rate of linear drag alone, 2 c = {2 * c:g}")
+        lines += residual_lines(group, c)
+    if ends:
+        fig_end_state(ends, a.out)
     text = "\n".join(lines)
     (a.out / "similarity.txt").write_text(text + "\n")
     print(text)
