@@ -302,6 +302,7 @@ ENERGY_STYLE = {
     "collision": ("collision dissipated", "tab:red", "-", 1.2),
     "correction": ("overlap-correction work", "tab:purple", "-", 1.2),
     "impulse_offset": ("impulses' half-kick offset", "tab:green", ":", 1.2),
+    "added_mass": ("added-mass exchange", "tab:brown", "-", 1.2),
     "residual": ("residual E(0) − E(t) − Σ dissipated", "0.4", "--", 1.2),
 }
 
@@ -324,6 +325,8 @@ def fig_energy_budget(groups: Sequence[Group], units: Units):
         ax = axes[i // ncol, i % ncol]
         grid, terms = energy_terms(g)
         for name in stats.ENERGY_TERMS:
+            if name in stats.LEDGER_TERMS and not np.any(terms[name].mean):
+                continue  # a ledger that booked nothing (an effect the runs do not name)
             # a ledger added later (an effect's) is drawn with a default style
             label, color, ls, lw = ENERGY_STYLE.get(name, (f"{name} dissipated", None, "-", 1.2))
             if name == "released":
