@@ -24,6 +24,18 @@ def test_collapse_picks_the_scaling_the_curves_follow():
     assert bad > 1.0  # in t c the same scaled time is 16x apart in t / c: sqrt(16) = 4x apart
 
 
+def test_misfit_to_reference_only_where_late_and_overlapping():
+    t = np.linspace(1.0, 8000.0, 4000)
+    ref = sim.Curve(0.01, np.linspace(1.0, 60000.0, 20000), _diffusive(np.linspace(1.0, 60000.0, 20000), 0.01))
+    others = [sim.Curve(c, t, _diffusive(t, c) + (t * c < 20) * 5.0) for c in (0.005, 0.04)]  # early: off
+    good = sim.misfit_to_reference([ref, *others], ref, "t / c", late=20.0)
+    assert set(good) == {0.005, 0.04} and max(good.values()) < 1e-3
+    bad = sim.misfit_to_reference(others, ref, "t c", late=20.0)
+    assert min(bad.values()) > 0.5
+    early = sim.misfit_to_reference(others, ref, "t / c", late=0.0)
+    assert min(early.values()) > 0.1  # the early offset counts when not cut
+
+
 def test_no_overlap_is_nan():
     t = np.linspace(1.0, 10.0, 50)
     curves = [sim.Curve(0.001, t, t), sim.Curve(1.0, t, t)]

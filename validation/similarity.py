@@ -125,7 +125,11 @@ def fig_similarity(runs, misfits, law_l, out):
             ax.set_ylabel(ylabel)
             ax.grid(alpha=0.3, which="both")
             if scaling != "t":
-                ax.set_title(f"against {scaling}: misfit {misfits[name][scaling]:.3g}", fontsize=9)
+                ax.set_title(
+                    f"against {scaling}: largest RMS difference from the longest run, t c >= {LATE:g}: "
+                    f"{misfits[name][scaling]:.3g}",
+                    fontsize=8,
+                )
     a, beta = law_l
     x = np.geomspace(LATE / max(runs) ** 2, max(float(d["time"][-1]) / c for c, g in runs.items() for d in g), 50)
     axes[1, 2].plot(x, a * x**beta, "k--", lw=1, label=f"L = {a:.3f} (t/c)^{beta:.3f}")
@@ -204,13 +208,20 @@ def main(argv=None):
     described = [f"{c:g} ({len(g)} runs, t <= {min(d['time'][-1] for d in g):g})" for c, g in runs.items()]
     lines = ["drags: " + ", ".join(described)]
     misfits = {}
+    reference = max(runs, key=lambda c: max(d["time"][-1] for d in runs[c]))  # the longest: the reference
     for name in ("capsized_fraction", "leading_edge"):
         cs = [sim.Curve(c, ens.time, ens.mean) for c, ens in curves(runs, name)]
+        ref = next(c for c in cs if c.drag == reference)
         misfits[name] = {}
         for scaling in sim.SCALINGS:
             m, (lo, hi) = sim.collapse_misfit(cs, scaling)
-            misfits[name][scaling] = m
-            lines.append(f"{name}: misfit against {scaling} = {m:.4g} over {lo:.4g} .. {hi:.4g}")
+            late = sim.misfit_to_reference(cs, ref, scaling, late=LATE)
+            worst = max(late.values()) if late else float("nan")
+            misfits[name][scaling] = worst
+            lines.append(
+                f"{name} against {scaling}: spread over all times {m:.4g} ({lo:.4g} .. {hi:.4g}); from t c >= {LATE:g}, "
+                f"RMS difference from c = {reference:g}: " + ", ".join(f"c = {c:g}: {v:.4g}" for c, v in late.items())
+            )
     law_l, sd_l = sim.bootstrap(runs, lambda r: leading_edge_law(r))
     law_f, sd_f = sim.bootstrap(runs, lambda r: capsize_law(r))
     lines.append(

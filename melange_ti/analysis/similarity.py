@@ -50,6 +50,37 @@ def collapse_misfit(curves: Sequence[Curve], scaling: str, points: int = 200) ->
     return float(np.sqrt(np.mean(np.var(ys, axis=0)))), (lo, hi)
 
 
+def misfit_to_reference(
+    curves: Sequence[Curve], reference: Curve, scaling: str, late: float = 0.0, points: int = 200
+) -> dict[float, float]:
+    """Per drag, the RMS difference of its mean curve from ``reference``'s under
+    ``scaling``, over a log-spaced grid of the scaled time where both are defined and the
+    drag's own ``t c >= late`` (past the drag-independent start); NaN where they do not
+    overlap."""
+    to_x = SCALINGS[scaling]
+    xr = to_x(reference.time, reference.drag)
+    okr = xr > 0
+    out = {}
+    for c in curves:
+        if c.drag == reference.drag:
+            continue
+        x = to_x(c.time, c.drag)
+        ok = (x > 0) & (c.time * c.drag >= late)
+        if ok.sum() < 2:
+            out[c.drag] = float("nan")
+            continue
+        lo = max(float(x[ok].min()), float(xr[okr].min()))
+        hi = min(float(x[ok].max()), float(xr[okr].max()))
+        if not hi > lo:
+            out[c.drag] = float("nan")
+            continue
+        grid = np.geomspace(lo, hi, points)
+        y = np.interp(np.log(grid), np.log(x[ok]), c.mean[ok])
+        yr = np.interp(np.log(grid), np.log(xr[okr]), reference.mean[okr])
+        out[c.drag] = float(np.sqrt(np.mean((y - yr) ** 2)))
+    return out
+
+
 def fit_power_law(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """``y = A x^beta`` by least squares in log-log; returns ``(A, beta)``."""
     x = np.asarray(x, dtype=float)
