@@ -216,7 +216,7 @@ def main(argv=None):
         for scaling in sim.SCALINGS:
             m, (lo, hi) = sim.collapse_misfit(cs, scaling)
             late = sim.misfit_to_reference(cs, ref, scaling, late=LATE)
-            worst = max(late.values()) if late else float("nan")
+            worst = max((v for v in late.values() if np.isfinite(v)), default=float("nan"))
             misfits[name][scaling] = worst
             lines.append(
                 f"{name} against {scaling}: spread over all times {m:.4g} ({lo:.4g} .. {hi:.4g}); from t c >= {LATE:g}, "
