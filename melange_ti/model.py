@@ -61,6 +61,12 @@ SERIAL_MAX_N = 50000
 # lower). Below CALIBRATE_MIN_N the serial form always wins: a parallel step costs ~15
 # kernel launches of ~10 us each, more than the whole serial step of a few thousand bodies.
 CALIBRATE_MIN_N = 2000
+
+# The parallel form solves islands of touching icebergs side by side (physics/islands.py)
+# from this many CPU threads (always on a GPU). On 2 threads, N = 100,000 active, finding
+# the islands (~2.3 ms, sequential) and adding their energy terms in order cost what the
+# two threads save in the passes (docs/performance.md): 1.06x slower, so off there.
+ISLANDS_MIN_THREADS = 4
 CALIBRATE_STEPS = 8  # timed steps per form, after one untimed step each (compilation)
 
 # The narrow phase's candidate lists (1 kB per iceberg) are kept at or below this N, in the
@@ -93,7 +99,7 @@ def _scene_value(scene: Scene, key: str) -> float:
 class Model:
     """Icebergs as Taichi ndarrays plus the step for one fixed effect set."""
 
-    def __init__(self, scene: Scene, icebergs: Icebergs | None = None, mode: str = "auto"):
+    def __init__(self, scene: Scene, icebergs: Icebergs | None = None, mode: str = "auto", islands: bool | None = None):
         bergs = icebergs if icebergs is not None else scene.icebergs()
         self.scene = scene
         self.fx = scene.effects
@@ -102,10 +108,13 @@ class Model:
         self.np_real = np.float32 if scene.precision == "f32" else np.float64
         self.calibration: dict[str, float] | None = None  # ms/step of each form, if measured
         self._calibrate = False
+        cfg = ti.lang.impl.current_cfg()
+        on_cpu = cfg.arch in (ti.x64, ti.arm64)
+        threads = int(cfg.cpu_max_num_threads) if on_cpu else 0
+        # the parallel form solves islands side by side where there are threads to pay for
+        # finding them (ISLANDS_MIN_THREADS); both ways give the same bits
+        self.islands = (not on_cpu or threads >= ISLANDS_MIN_THREADS) if islands is None else bool(islands)
         if mode == "auto":
-            cfg = ti.lang.impl.current_cfg()
-            on_cpu = cfg.arch in (ti.x64, ti.arm64)
-            threads = int(cfg.cpu_max_num_threads) if on_cpu else 0
             mode = "serial" if on_cpu and n <= SERIAL_MAX_N else "parallel"
             # measured at the first advance (serial meanwhile: its allocation, lists included)
             self._calibrate = on_cpu and threads > 1 and CALIBRATE_MIN_N <= n <= SERIAL_MAX_N
@@ -306,8 +315,14 @@ class Model:
 
     def _run(self, stage: stages.Stage, times: dict | None) -> None:
         t0 = time.perf_counter() if times is not None else 0.0
-        for _ in range(self._repeats[stage.repeat] if stage.repeat else 1):
-            for part in stage.parallel:
+        if self.islands or stage.without_islands is None:
+            if stage.islands_only and not self.islands:
+                return
+            parts, repeat = stage.parallel, self._repeats[stage.repeat] if stage.repeat else 1
+        else:
+            parts, repeat = stage.without_islands, 1
+        for _ in range(repeat):
+            for part in parts:
                 if part.needs(self.fx):
                     stages.run_part(self.fx, part, *self.arrays)
         if times is not None:

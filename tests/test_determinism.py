@@ -43,8 +43,8 @@ def scene_text() -> str:
     return dumps_toml(doc)
 
 
-def run_model(sc, mode):
-    m = Model(sc, mode=mode)
+def run_model(sc, mode, islands=None):
+    m = Model(sc, mode=mode, islands=islands)
     assert m.mode == mode
     m.advance(STEPS)
     return m.sample(), m.totals()
@@ -82,11 +82,19 @@ from melange_ti.physics.schema import STATE_NAMES as STATE  # noqa: E402
 @pytest.fixture(scope="module")
 def other_runs():
     sc = scene_mod.loads(scene_text())
-    runs = (("parallel", "parallel"), ("parallel again", "parallel"), ("serial again", "serial"))
-    return {name: run_model(sc, mode) for name, mode in runs}
+    runs = (
+        ("parallel", "parallel", False),
+        ("parallel islands", "parallel", True),
+        ("parallel again", "parallel", None),
+        ("serial again", "serial", None),
+    )
+    return {name: run_model(sc, mode, islands) for name, mode, islands in runs}
 
 
-@pytest.mark.parametrize("other", ["parallel", "parallel again", "serial again"])
+OTHERS = ["parallel", "parallel islands", "parallel again", "serial again"]
+
+
+@pytest.mark.parametrize("other", OTHERS)
 def test_state_bit_identical(serial_result, other_runs, other):
     """State and cumulative totals after 2000 steps: serial == parallel, run 1 == run 2."""
     s_ser, t_ser = serial_result
@@ -95,7 +103,7 @@ def test_state_bit_identical(serial_result, other_runs, other):
     assert t_ser == t_oth, (t_ser, t_oth)
 
 
-@pytest.mark.parametrize("other", ["parallel", "parallel again", "serial again"])
+@pytest.mark.parametrize("other", OTHERS)
 def test_energy_diagnostics_bit_identical(serial_result, other_runs, other):
     """Per-body kinetic and potential energy and drag work (what the HDF5 diagnostics sum)."""
     s_ser, _ = serial_result

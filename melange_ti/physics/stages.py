@@ -74,6 +74,9 @@ class Stage:
     needs: Callable = always
     kind: str = "stage"
     repeat: str | None = None
+    # the parallel form without islands (Model(islands=False)): these parts instead
+    without_islands: tuple[Part, ...] | None = None
+    islands_only: bool = False
 
 
 @dataclass(frozen=True)
@@ -122,12 +125,13 @@ def nothing(fx: ti.template(), a: ti.template()):
 
 
 # the serial form solves everything in one sequential pass and needs no islands
-ISLANDS = Stage("islands", nothing, (Part(islands.label, sequential=True),))
+ISLANDS = Stage("islands", nothing, (Part(islands.label, sequential=True),), islands_only=True)
 IMPULSES = Stage(
     "impulses",
     impulses.impulse_pass,
     (Part(islands.impulse_islands), Part(impulses.book, sequential=True)),
     repeat="PASSES",
+    without_islands=(Part(impulses.impulse_pass, sequential=True),),
 )
 CHECK = Stage("check", impulses.check, (Part(impulses.check),))
 DRIFT = Stage("drift", drift_stage, (Part(drift_stage),))
@@ -141,6 +145,7 @@ CORRECTION = Stage(
         Part(islands.book_correction, sequential=True),
     ),
     needs=contacts,
+    without_islands=(Part(correction.correction_pass, sequential=True),),
 )
 
 STEP = (FORCES, Rounds((BROAD, NARROW, ISLANDS), (IMPULSES, CHECK), MAX_DETECT, needs=contacts), DRIFT, CORRECTION)
