@@ -113,7 +113,7 @@ def test_xarray_follows_a_running_file_and_reads_it_after_kill9(tmp_path):
     """A run followed with mt.open_run while it writes (every view consistent: all variables
     of a group as long as its time), then killed with SIGKILL: still opens, up to the last
     flush, and what it holds is the start of the same run finished elsewhere."""
-    overrides = ["--set", "shelf.count=100", "--set", "time.duration=20000", "--set", "output.snapshot_interval=200"]
+    overrides = ["--set", "shelf.count=100", "--set", "time.duration=200000", "--set", "output.snapshot_interval=200"]
     p = subprocess.Popen([PY, "-m", "melange_ti", "run", "--out", "run.h5", *overrides], cwd=tmp_path, stderr=subprocess.PIPE)
     seen = []
     retries = 0
