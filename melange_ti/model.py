@@ -123,7 +123,6 @@ class Model:
         self.mode = mode
         self.contacts = self.fx.contacts
         slots = scene.contacts.max_partners if self.fx.collisions else 1
-        self._repeats = {"PASSES": scene.contacts.contact_passes}
         ncells = 1 << max(2, math.ceil(math.log2(max(n, 4)))) if self.fx.collisions else 4
         # candidate lists for the narrow phase, used where they were measured to pay (see
         # LISTS_MAX_N). Contacts are bit-for-bit the same with and without them.
@@ -315,12 +314,11 @@ class Model:
 
     def _run(self, stage: stages.Stage, times: dict | None) -> None:
         t0 = time.perf_counter() if times is not None else 0.0
-        if self.islands or stage.without_islands is None:
-            if stage.islands_only and not self.islands:
-                return
-            parts, repeat = stage.parallel, self._repeats[stage.repeat] if stage.repeat else 1
-        else:
-            parts, repeat = stage.without_islands, 1
+        if not self.islands and stage.islands_only:
+            return
+        parts, repeat = stage.parallel, self.scene.contacts.contact_passes if stage.per_pass else 1
+        if not self.islands and stage.without_islands is not None:
+            parts, repeat = stage.without_islands, 1  # the sequential pass loops its passes itself
         for _ in range(repeat):
             for part in parts:
                 if part.needs(self.fx):

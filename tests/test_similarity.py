@@ -57,7 +57,7 @@ def test_pooled_keeps_late_points_of_every_drag():
         0.01: [{"time": np.array([100.0, 1000.0, 2000.0]), "L": np.array([1.0, 2.0, 3.0])}],
         0.02: [{"time": np.array([100.0, 1000.0, 2000.0]), "L": np.array([4.0, 5.0, 6.0])}],
     }
-    x, y = sim.pooled(runs, "L", "t / c", x_min=5e4)
+    x, y = sim.pooled(runs, "L", "t / c", late=10.0)  # t c >= 10: t >= 1000 at 0.01, >= 500 at 0.02
     np.testing.assert_array_equal(x, [1e5, 2e5, 5e4, 1e5])
     np.testing.assert_array_equal(y, [2.0, 3.0, 5.0, 6.0])
 
@@ -67,7 +67,7 @@ def test_bootstrap_spread_is_zero_for_identical_runs_and_positive_for_scatter():
     same = {0.01: [{"time": x * 0.01, "L": 0.05 * np.sqrt(x)}] * 4}
 
     def beta(runs):
-        return [sim.fit_power_law(*sim.pooled(runs, "L", "t / c", 0.0))[1]]
+        return [sim.fit_power_law(*sim.pooled(runs, "L", "t / c"))[1]]
 
     value, sd = sim.bootstrap(same, beta, samples=50)
     assert value[0] == pytest.approx(0.5, rel=1e-12) and sd[0] == pytest.approx(0.0, abs=1e-12)

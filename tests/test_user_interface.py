@@ -109,7 +109,7 @@ def test_xarray_round_trip(small_run):
 
 
 FOLLOWER = """
-import json, sys, time
+import json, os, sys, time
 import numpy as np
 import melange_ti as mt
 from pathlib import Path
@@ -118,7 +118,6 @@ seen, retries = [], 0
 deadline = time.monotonic() + 300
 def alive():
     try:
-        import os
         os.kill(pid, 0)
         return True
     except OSError:

@@ -57,16 +57,9 @@ def curves(runs, name):
     return out
 
 
-def late_mask(c, t):
-    return t * c >= LATE
-
-
 def leading_edge_law(runs):
     """L = A (t / c)^beta, pooled over drags, t c >= LATE."""
-    x, y = sim.pooled({c: [d for d in g] for c, g in runs.items()}, "leading_edge", "t / c", 0.0)
-    cs = np.concatenate([np.full(len(d["time"]), c) for c, g in runs.items() for d in g])
-    keep = x * cs * cs >= LATE  # t c = (t / c) c^2
-    return sim.fit_power_law(x[keep], y[keep])
+    return sim.fit_power_law(*sim.pooled(runs, "leading_edge", "t / c", late=LATE))
 
 
 def capsize_law(runs):
@@ -74,7 +67,7 @@ def capsize_law(runs):
     xs, ys = [], []
     for c, g in runs.items():
         for d in g:
-            keep = late_mask(c, d["time"]) & (d["capsized_fraction"] < 0.98)
+            keep = (d["time"] * c >= LATE) & (d["capsized_fraction"] < 0.98)
             xs.append(d["leading_edge"][keep])
             ys.append(d["capsized_fraction"][keep])
     return sim.fit_line(np.concatenate(xs), np.concatenate(ys))
@@ -222,8 +215,8 @@ def main(argv=None):
                 f"{name} against {scaling}: spread over all times {m:.4g} ({lo:.4g} .. {hi:.4g}); from t c >= {LATE:g}, "
                 f"RMS difference from c = {reference:g}: " + ", ".join(f"c = {c:g}: {v:.4g}" for c, v in late.items())
             )
-    law_l, sd_l = sim.bootstrap(runs, lambda r: leading_edge_law(r))
-    law_f, sd_f = sim.bootstrap(runs, lambda r: capsize_law(r))
+    law_l, sd_l = sim.bootstrap(runs, leading_edge_law)
+    law_f, sd_f = sim.bootstrap(runs, capsize_law)
     lines.append(
         f"leading edge L = A (t/c)^beta, t c >= {LATE:g}: "
         f"A = {law_l[0]:.4f} ± {sd_l[0]:.4f}, beta = {law_l[1]:.4f} ± {sd_l[1]:.4f}"

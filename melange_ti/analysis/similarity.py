@@ -103,15 +103,15 @@ def fit_line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return float(a), float(b)
 
 
-def pooled(runs: Mapping[float, Sequence[Mapping[str, np.ndarray]]], name: str, scaling: str, x_min: float) -> Series:
-    """Every run's ``(scaled time, diagnostic)`` points with scaled time >= ``x_min``, all
-    drags pooled (``runs``: drag -> run diagnostics with ``time``)."""
+def pooled(runs: Mapping[float, Sequence[Mapping[str, np.ndarray]]], name: str, scaling: str, late: float = 0.0) -> Series:
+    """Every run's ``(scaled time, diagnostic)`` points with ``t c >= late``, all drags
+    pooled (``runs``: drag -> run diagnostics with ``time``)."""
     xs, ys = [], []
     for drag, group in runs.items():
         for d in group:
-            x = SCALINGS[scaling](d["time"], drag)
-            keep = x >= x_min
-            xs.append(x[keep])
+            t = np.asarray(d["time"], dtype=float)
+            keep = t * drag >= late
+            xs.append(SCALINGS[scaling](t[keep], drag))
             ys.append(np.asarray(d[name], dtype=float)[keep])
     return np.concatenate(xs), np.concatenate(ys)
 

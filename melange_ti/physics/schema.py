@@ -73,7 +73,13 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
         Column("MASS", "constant", "rho_w w^2", "mass, density_ratio * width * thickness", "mass"),
         Column("INERTIA", "constant", "rho_w w^4", "moment of inertia, mass (w^2 + h^2) / 12", "inertia"),
         *effect_columns,
-        Column("POT_START", "scratch", E, "correction: potential energy before the body's first push (before it: KICK_OM)"),
+        Column(
+            "POT_START",
+            "scratch",
+            E,
+            "correction: potential energy before the body's first push (before it: KICK_OM; "
+            "with islands, then its change, islands.correction_energy)",
+        ),
     ]
     # the effects beyond the paper start a line of their own: a scene that names none of
     # them allocates the paper's three lines only (Model), so they cost it nothing

@@ -65,16 +65,17 @@ class Part:
 @dataclass(frozen=True)
 class Stage:
     """A named stage: ``serial(fx, a)`` is the whole stage with serial loops (inside the
-    fused kernel); ``parallel`` its parts as kernels, run ``repeat`` times in turn (a
-    :class:`.schema.Config` slot, or once); ``needs(fx)``: run only when true."""
+    fused kernel); ``parallel`` its parts as kernels, in turn, ``contact_passes`` times if
+    ``per_pass``; ``needs(fx)``: run only when true. Without islands
+    (``Model(islands=False)``) the parallel form runs ``without_islands`` instead (once), and
+    skips an ``islands_only`` stage."""
 
     name: str
     serial: Callable
     parallel: tuple[Part, ...]
     needs: Callable = always
     kind: str = "stage"
-    repeat: str | None = None
-    # the parallel form without islands (Model(islands=False)): these parts instead
+    per_pass: bool = False
     without_islands: tuple[Part, ...] | None = None
     islands_only: bool = False
 
@@ -130,7 +131,7 @@ IMPULSES = Stage(
     "impulses",
     impulses.impulse_pass,
     (Part(islands.impulse_islands), Part(impulses.book, sequential=True)),
-    repeat="PASSES",
+    per_pass=True,
     without_islands=(Part(impulses.impulse_pass, sequential=True),),
 )
 CHECK = Stage("check", impulses.check, (Part(impulses.check),))
