@@ -88,6 +88,34 @@ def _close_handles(path: Path) -> None:
             pass
 
 
+def _open_tree(xr, path: Path, complete: bool):
+    """The file as a DataTree. A file still being written (or cut short) is read through
+    a Python file object of its own: HDF5 then shares nothing with any earlier open of the
+    file in this process (with a path, it serves a new open from a still-open view of the
+    same file, which a failed open can leave behind: stale, it never shows a later row).
+    Closing the tree closes that file object too."""
+    kw = dict(engine="h5netcdf", phony_dims="access", driver_kwds={"locking": False})
+    if complete:
+        return xr.open_datatree(path, **kw)
+    fh = open(path, "rb")  # noqa: SIM115 (closed with the tree)
+    try:
+        tree = xr.open_datatree(fh, **kw)
+    except BaseException:
+        fh.close()
+        raise
+    close_root = tree._close
+
+    def close() -> None:
+        try:
+            if close_root is not None:
+                close_root()
+        finally:
+            fh.close()
+
+    tree.set_close(close)
+    return tree
+
+
 def open_run(path: str | Path):
     """The run file ``path`` as an :class:`xarray.DataTree`: groups ``icebergs``,
     ``snapshots`` and ``diagnostics`` with named dimensions ``time`` and ``iceberg``, ``time``
@@ -101,10 +129,10 @@ def open_run(path: str | Path):
 
     path = Path(path)
     for attempt in range(_OPEN_ATTEMPTS):
-        lengths = consistent_lengths(path)  # also: one-line OutputError for a missing or foreign file
+        lengths, complete = consistent_lengths(path, complete=True)  # also: one-line OutputError for a missing or foreign file
         try:
             # no HDF5 file lock: the writer takes none either, so a running file can be read
-            tree = xr.open_datatree(path, engine="h5netcdf", phony_dims="access", driver_kwds={"locking": False})
+            tree = _open_tree(xr, path, complete)
             break
         except (OSError, KeyError, ValueError) as exc:
             # a file being written (HDF5 without SWMR) can be caught mid-write; the failed

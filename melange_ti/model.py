@@ -148,7 +148,10 @@ class Model:
             cnt=alloc(COUNTERS),
             acc=alloc(ACCUMULATORS),
         )
-        self._out = ti.ndarray(self.real, shape=(n, len(stages.SAMPLE_NAMES)))
+        # where :meth:`sample` puts what it fetches (numpy: the kernel writes it in place)
+        self._out = np.zeros((n, len(stages.SAMPLE_NAMES)), dtype=self.np_real)
+        self._out_acc = np.zeros(ACCUMULATORS.size, dtype=np.float64)
+        self._out_cnt = np.zeros(COUNTERS.size, dtype=np.int64)
 
         a = self.arrays
         p = scene.physics
@@ -215,17 +218,24 @@ class Model:
 
     def sample(self) -> dict[str, np.ndarray]:
         """State, the per-body ledgers (e.g. ``drag_dissipated``) and per-body ``kinetic``
-        and ``potential`` energy, in one transfer (:data:`stages.SAMPLE_NAMES`)."""
-        stages.sample_all(self.fx, self.arrays.b, self.arrays.par, self._out)
-        out = self._out.to_numpy()
-        return {name: out[:, k].copy() for k, name in enumerate(stages.SAMPLE_NAMES)}
+        and ``potential`` energy (:data:`stages.SAMPLE_NAMES`)."""
+        return self.sample_with_totals()[0]
+
+    def sample_with_totals(self) -> tuple[dict[str, np.ndarray], Totals]:
+        """:meth:`sample` and :meth:`totals` of the same instant, in one kernel launch (an
+        output event's whole fetch)."""
+        a = self.arrays
+        stages.sample_all(self.fx, a.b, a.par, a.acc, a.cnt, self._out, self._out_acc, self._out_cnt)
+        out = self._out
+        sample = {name: out[:, k].copy() for k, name in enumerate(stages.SAMPLE_NAMES)}
+        return sample, self._totals(self._out_acc, self._out_cnt)
 
     def totals(self) -> Totals:
-        acc = self.arrays.acc.to_numpy()
-        return Totals(
-            **{name: float(acc[k]) for name, k in ACC_LEDGERS.items()},
-            contacts=int(self.arrays.cnt.to_numpy()[Counter.CONTACTS]),
-        )
+        return self._totals(self.arrays.acc.to_numpy(), self.arrays.cnt.to_numpy())
+
+    @staticmethod
+    def _totals(acc: np.ndarray, cnt: np.ndarray) -> Totals:
+        return Totals(**{name: float(acc[k]) for name, k in ACC_LEDGERS.items()}, contacts=int(cnt[Counter.CONTACTS]))
 
     def accumulators(self) -> dict[str, np.ndarray]:
         """Everything cumulative besides the state (for checkpoints): the per-body ledgers

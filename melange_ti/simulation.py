@@ -147,7 +147,7 @@ class Diagnostics:
         self.last_step = -1
 
     def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
-        tot = sim.model.totals()
+        tot = sim.totals  # fetched with the sample
         c = self.counters
         span = t - c.t
         row = {
@@ -289,6 +289,7 @@ class Simulation:
             Checkpoints(every(scene.output.checkpoint_interval), diagnostics),
         ]
         self.diagnostics = diagnostics
+        self.totals = None  # the model's Totals, fetched with each event's sample
         self._check_paths()
 
     def _check_paths(self) -> None:
@@ -386,7 +387,7 @@ class Simulation:
         if not due:
             return
         t = step * self.scene.time.dt
-        s = self.model.sample()
+        s, self.totals = self.model.sample_with_totals()
         if first:
             self.x0_max = float(np.max(s["x"]))
             self.p0 = float(np.sum(s["potential"]))

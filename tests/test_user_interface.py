@@ -9,6 +9,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import h5py
@@ -108,72 +109,68 @@ def test_xarray_round_trip(small_run):
     assert abs(float(tree["diagnostics"].capsized_fraction[-1]) - summary.capsized_fraction) == 0.0
 
 
-FOLLOWER = """
-import json, os, sys, time
-import numpy as np
-import melange_ti as mt
-from pathlib import Path
-path, pid = Path(sys.argv[1]), int(sys.argv[2])
-seen, retries = [], 0
-deadline = time.monotonic() + 300
-def alive():
-    try:
-        os.kill(pid, 0)
-        return True
-    except OSError:
-        return False
-while time.monotonic() < deadline and alive() and (len(seen) < 3 or seen[-1] < 6):
-    if path.exists():
+def follow(path, pid, budget=300.0):
+    """Views of a growing run file, as a notebook following it would take them: open with
+    mt.open_run, check, close, until it has grown at least 3 times (or ``budget`` s pass,
+    or the process ``pid`` exits). Returns (row counts seen, reads retried)."""
+    seen, retries = [], 0
+    deadline = time.monotonic() + budget
+
+    def alive():
         try:
-            tree = mt.open_run(path)
-        except (mt.OutputError, OSError, KeyError, ValueError):
-            retries += 1  # opened mid-write (HDF5 without SWMR): a follower retries
-            time.sleep(0.05)
-            continue
-        with tree:  # closed after each look, so the next open sees new rows
-            snaps = tree["snapshots"].to_dataset()
+            os.kill(pid, 0)
+            return True
+        except OSError:
+            return False
+
+    while time.monotonic() < deadline and alive() and (len(seen) < 3 or seen[-1] < 6):
+        if path.exists():
             try:
-                snaps = snaps.load()
-            except OSError:
-                retries += 1  # a read racing a write; the file itself is never damaged
+                tree = mt.open_run(path)
+            except (mt.OutputError, OSError, KeyError, ValueError):
+                retries += 1  # opened mid-write (HDF5 without SWMR): a follower retries
+                time.sleep(0.05)
                 continue
-            t = snaps.time.values
-            np.testing.assert_allclose(t, np.arange(t.size) * 200.0)
-            assert all(snaps[v].shape[0] == t.size for v in snaps.data_vars)
-            assert np.all(np.isfinite(snaps.x.values))
-        if not seen or t.size > seen[-1]:
-            seen.append(int(t.size))
-    time.sleep(0.05)
-print(json.dumps({"seen": seen, "retries": retries}))
-"""
+            with tree:  # closed after each look, so the next open sees new rows
+                snaps = tree["snapshots"].to_dataset()
+                try:
+                    snaps = snaps.load()
+                except OSError:
+                    retries += 1  # a read racing a write; the file itself is never damaged
+                    continue
+                t = snaps.time.values
+                np.testing.assert_allclose(t, np.arange(t.size) * 200.0)
+                assert all(snaps[v].shape[0] == t.size for v in snaps.data_vars)
+                assert np.all(np.isfinite(snaps.x.values))
+            if not seen or t.size > seen[-1]:
+                seen.append(int(t.size))
+        time.sleep(0.05)
+    return seen, retries
 
 
-def test_xarray_follows_a_running_file_and_reads_it_after_kill9(tmp_path):
-    """A run followed with mt.open_run from another process (as from a notebook) while it
-    writes (every view consistent: all variables of a group as long as its time), then
-    killed with SIGKILL: still opens, up to the last flush."""
-    import json
-
+def test_xarray_follows_a_running_file_and_reads_it_after_kill9(small_run, tmp_path):
+    """A run followed with mt.open_run while it writes (every view consistent: all
+    variables of a group as long as its time), in a process that holds another run open
+    (a notebook's earlier cell: once, HDF5 then served every open of the running file from
+    a stale view), then killed with SIGKILL: still opens, up to the last flush."""
+    other = mt.open_run(small_run[0])  # kept open while following
     overrides = ["--set", "shelf.count=100", "--set", "time.duration=200000", "--set", "output.snapshot_interval=200"]
     p = subprocess.Popen([PY, "-m", "melange_ti", "run", "--out", "run.h5", *overrides], cwd=tmp_path, stderr=subprocess.PIPE)
     try:
-        r = subprocess.run(
-            [PY, "-c", FOLLOWER, str(tmp_path / "run.h5"), str(p.pid)], capture_output=True, text=True, timeout=400
-        )
-        assert r.returncode == 0, r.stderr
-        got = json.loads(r.stdout.strip().splitlines()[-1])
-        seen, retries = got["seen"], got["retries"]
+        seen, retries = follow(tmp_path / "run.h5", p.pid)
         assert p.poll() is None, f"the run finished before the test could kill it (views {seen}, {retries} retried)"
         p.send_signal(signal.SIGKILL)
         p.wait(timeout=60)
     finally:
         if p.poll() is None:
             p.kill()
+        other.close()
     assert len(seen) >= 3, f"the reader saw the file grow only {seen} ({retries} reads retried)"
     after = mt.open_run(tmp_path / "run.h5")
     n = after["snapshots"].sizes["time"]
     assert n >= seen[-1]
     assert after["diagnostics"].time.values[-1] >= after["snapshots"].time.values[-1]
+    after.close()
 
 
 # ---------------------------------------------------------------- the sharp edges

@@ -246,12 +246,14 @@ def consistent_length(group: h5py.Group) -> int:
     return min(ds.shape[0] for ds in group.values())
 
 
-def consistent_lengths(path: str | Path) -> dict[str, int]:
-    """``{"snapshots": S, "diagnostics": D}``: the rows every dataset of each group holds."""
+def consistent_lengths(path: str | Path, complete: bool = False):
+    """``{"snapshots": S, "diagnostics": D}``: the rows every dataset of each group holds;
+    with ``complete``, also whether the run finished (its ``complete`` attribute)."""
     path = Path(path)
     try:
         with h5py.File(path, "r", locking=False) as f:
-            return {group: consistent_length(f[group]) for group in ("snapshots", "diagnostics")}
+            lengths = {group: consistent_length(f[group]) for group in ("snapshots", "diagnostics")}
+            return (lengths, bool(f.attrs.get("complete", False))) if complete else lengths
     except FileNotFoundError:
         raise OutputError(f"{path}: not found") from None
     except (OSError, KeyError, ValueError, RuntimeError) as exc:

@@ -34,14 +34,14 @@ def predicted_gap(a: ti.template(), i, j, px, pz, nx, nz, gap):
 
 
 @ti.func
-def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end):
+def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end, eager: ti.template()):
     """Remove the overlap left after the drift, split by inverse mass (pair centre fixed).
 
     Between two icebergs the overlap is ``g_end`` (:func:`predicted_gap`) plus the pushes
     so far along the normal; at the wall (j < 0, normal fixed) it is measured exactly from
     the discs. A body moved for the first time in this pass records its potential energy
-    (``Body.POT_START``) and is marked with the sweep (``BodyInt.PUSHED``); the pass books
-    the energy change per body."""
+    (``Body.POT_START``; with ``eager``, :func:`prepare_body` recorded it) and is marked
+    with the sweep (``BodyInt.PUSHED``); the pass books the energy change per body."""
     b = ti.static(a.b)
     _m1, inv1, _i1 = contact_mass(fx, a, i)
     inv2 = 0.0
@@ -55,8 +55,9 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end):
     if g < -1e-12:
         pushed = 1
         depth = -g
-        if a.bi[i, BodyInt.PUSHED] < 0:
-            b[i, Body.POT_START] = potential_energy(fx, a, i)
+        if ti.static(not eager):
+            if a.bi[i, BodyInt.PUSHED] < 0:
+                b[i, Body.POT_START] = potential_energy(fx, a, i)
         a.bi[i, BodyInt.PUSHED] = sweep
         s1 = depth * inv1 / (inv1 + inv2)
         b[i, Body.X] += s1 * nx
@@ -64,8 +65,9 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end):
         b[i, Body.SHIFT_X] += s1 * nx
         b[i, Body.SHIFT_Z] += s1 * nz
         if j >= 0:
-            if a.bi[j, BodyInt.PUSHED] < 0:
-                b[j, Body.POT_START] = potential_energy(fx, a, j)
+            if ti.static(not eager):
+                if a.bi[j, BodyInt.PUSHED] < 0:
+                    b[j, Body.POT_START] = potential_energy(fx, a, j)
             a.bi[j, BodyInt.PUSHED] = sweep
             s2 = depth * inv2 / (inv1 + inv2)
             b[j, Body.X] -= s2 * nx
@@ -76,14 +78,19 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end):
 
 
 @ti.func
-def prepare_body(fx: ti.template(), a: ti.template(), i):
+def prepare_body(fx: ti.template(), a: ti.template(), i, eager: ti.template()):
     """Before the sweeps: body i not pushed yet, and each of its contacts' end-of-step gap
-    (stored in ``Contact.GAP``), once, before anything is pushed."""
+    (stored in ``Contact.GAP``), once, before anything is pushed. With ``eager`` (the
+    parallel form) also its potential energy (``Body.POT_START``), which the sweeps would
+    otherwise record at its first push, sequentially: nothing moves it before then, so the
+    bits are the same."""
     b = ti.static(a.b)
     cd = ti.static(a.cd)
     b[i, Body.SHIFT_X] = 0.0
     b[i, Body.SHIFT_Z] = 0.0
     a.bi[i, BodyInt.PUSHED] = -1  # the last sweep that moved body i
+    if ti.static(eager):
+        b[i, Body.POT_START] = potential_energy(fx, a, i)
     if ti.static(fx.collisions):
         for s in range(a.bi[i, BodyInt.NCONTACT]):
             cd[s, i, Contact.GAP] = predicted_gap(
@@ -99,7 +106,7 @@ def prepare_body(fx: ti.template(), a: ti.template(), i):
 
 
 @ti.func
-def sweep_body(fx: ti.template(), a: ti.template(), sweep, i):
+def sweep_body(fx: ti.template(), a: ti.template(), sweep, i, eager: ti.template()):
     """One sweep's pushes of body i's contacts (wall, then partners j > i ascending); after
     the first sweep only contacts of a body moved in the previous one. Returns how many
     pushed."""
@@ -108,28 +115,73 @@ def sweep_body(fx: ti.template(), a: ti.template(), sweep, i):
     pushed = 0
     if ti.static(fx.wall):
         if a.bi[i, BodyInt.WALL_ON] and a.bi[i, BodyInt.PUSHED] >= since:
-            pushed += push(fx, a, sweep, i, -1, 1.0, 0.0, 0.0)
+            pushed += push(fx, a, sweep, i, -1, 1.0, 0.0, 0.0, eager)
     if ti.static(fx.collisions):
         for s in range(a.bi[i, BodyInt.NCONTACT]):
             j = a.cp[s, i]
             if ti.max(a.bi[i, BodyInt.PUSHED], a.bi[j, BodyInt.PUSHED]) >= since:
-                pushed += push(fx, a, sweep, i, j, cd[s, i, Contact.NX], cd[s, i, Contact.NZ], cd[s, i, Contact.GAP])
+                pushed += push(fx, a, sweep, i, j, cd[s, i, Contact.NX], cd[s, i, Contact.NZ], cd[s, i, Contact.GAP], eager)
     return pushed
 
 
 @ti.func
-def correction_pass(fx: ti.template(), a: ti.template()):
-    b = ti.static(a.b)
-    n = b.shape[0]
-    for i in range(n):
-        prepare_body(fx, a, i)
+def prepare_all(fx: ti.template(), a: ti.template()):
+    """:func:`prepare_body` of every body, eager (the parallel form)."""
+    for i in range(a.b.shape[0]):
+        prepare_body(fx, a, i, True)
+
+
+@ti.func
+def sweeps(fx: ti.template(), a: ti.template(), eager: ti.template()):
+    """The sweeps over every body, in body order, until one pushes nothing (sequential)."""
+    n = a.b.shape[0]
     for sweep in range(MAX_CORRECT):
         pushed = 0
         for i in range(n):
-            pushed += sweep_body(fx, a, sweep, i)
+            pushed += sweep_body(fx, a, sweep, i, eager)
         if pushed == 0:
             break
-    # the corrections' change of potential energy, per moved body, in body order
-    for i in range(n):
+
+
+@ti.func
+def sweeps_eager(fx: ti.template(), a: ti.template()):
+    """:func:`sweeps` after :func:`prepare_all` (the parallel form without islands)."""
+    sweeps(fx, a, True)
+
+
+@ti.func
+def energy_change(fx: ti.template(), a: ti.template(), i):
+    """Body i's change of potential energy in this pass, 0 if it was not moved."""
+    du = 0.0
+    if a.bi[i, BodyInt.PUSHED] >= 0:
+        du = potential_energy(fx, a, i) - a.b[i, Body.POT_START]
+    return du
+
+
+@ti.func
+def energy_all(fx: ti.template(), a: ti.template()):
+    """Each moved body's change of potential energy, kept in ``Body.POT_START``."""
+    for i in range(a.b.shape[0]):
         if a.bi[i, BodyInt.PUSHED] >= 0:
-            a.acc[Acc.CORRECTION] -= potential_energy(fx, a, i) - b[i, Body.POT_START]
+            a.b[i, Body.POT_START] = energy_change(fx, a, i)
+
+
+@ti.func
+def book(fx: ti.template(), a: ti.template()):
+    """The changes :func:`energy_all` kept, summed in body order (sequential): the bits of
+    :func:`correction_pass`'s own sum."""
+    for i in range(a.b.shape[0]):
+        if a.bi[i, BodyInt.PUSHED] >= 0:
+            a.acc[Acc.CORRECTION] -= a.b[i, Body.POT_START]
+
+
+@ti.func
+def correction_pass(fx: ti.template(), a: ti.template()):
+    """The whole pass, serial loops (the serial form)."""
+    for i in range(a.b.shape[0]):
+        prepare_body(fx, a, i, False)
+    sweeps(fx, a, False)
+    # the corrections' change of potential energy, per moved body, in body order
+    for i in range(a.b.shape[0]):
+        if a.bi[i, BodyInt.PUSHED] >= 0:
+            a.acc[Acc.CORRECTION] -= energy_change(fx, a, i)

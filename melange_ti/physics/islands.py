@@ -18,10 +18,9 @@ each (``BodyInt.ISLAND_ORDER`` from ``ISLAND_START[k]``).
 
 import taichi as ti
 
-from .correction import MAX_CORRECT, prepare_body, sweep_body
-from .forces import potential_energy
+from .correction import MAX_CORRECT, sweep_body
 from .impulses import body_contacts
-from .schema import Acc, Body, BodyInt, Config, Counter
+from .schema import BodyInt, Config, Counter
 
 
 @ti.func
@@ -94,12 +93,6 @@ def impulse_islands(fx: ti.template(), a: ti.template()):
 
 
 @ti.func
-def prepare_all(fx: ti.template(), a: ti.template()):
-    for i in range(a.b.shape[0]):
-        prepare_body(fx, a, i)
-
-
-@ti.func
 def correct_islands(fx: ti.template(), a: ti.template()):
     """The correction's sweeps, islands in parallel, each until it pushes nothing (a sweep
     of the sequential pass visits nothing in an island that pushed nothing in the last)."""
@@ -108,22 +101,6 @@ def correct_islands(fx: ti.template(), a: ti.template()):
         for sweep in range(MAX_CORRECT):
             pushed = 0
             for p in range(start, end):
-                pushed += sweep_body(fx, a, sweep, a.bi[p, BodyInt.ISLAND_ORDER])
+                pushed += sweep_body(fx, a, sweep, a.bi[p, BodyInt.ISLAND_ORDER], True)
             if pushed == 0:
                 break
-
-
-@ti.func
-def correction_energy(fx: ti.template(), a: ti.template()):
-    """Each moved body's change of potential energy, in ``Body.POT_START``."""
-    for i in range(a.b.shape[0]):
-        if a.bi[i, BodyInt.PUSHED] >= 0:
-            a.b[i, Body.POT_START] = potential_energy(fx, a, i) - a.b[i, Body.POT_START]
-
-
-@ti.func
-def book_correction(fx: ti.template(), a: ti.template()):
-    """The corrections' energy summed in body order (sequential): the sequential pass's bits."""
-    for i in range(a.b.shape[0]):
-        if a.bi[i, BodyInt.PUSHED] >= 0:
-            a.acc[Acc.CORRECTION] -= a.b[i, Body.POT_START]

@@ -136,17 +136,25 @@ IMPULSES = Stage(
 )
 CHECK = Stage("check", impulses.check, (Part(impulses.check),))
 DRIFT = Stage("drift", drift_stage, (Part(drift_stage),))
+# the correction's parts: prepare each body and its contacts' gaps (parallel), the sweeps
+# (per island in parallel, or all bodies in one sequential loop), each moved body's change
+# of potential energy (parallel), their sum in body order (sequential)
 CORRECTION = Stage(
     "correction",
     correction.correction_pass,
     (
-        Part(islands.prepare_all),
+        Part(correction.prepare_all),
         Part(islands.correct_islands),
-        Part(islands.correction_energy),
-        Part(islands.book_correction, sequential=True),
+        Part(correction.energy_all),
+        Part(correction.book, sequential=True),
     ),
     needs=contacts,
-    without_islands=(Part(correction.correction_pass, sequential=True),),
+    without_islands=(
+        Part(correction.prepare_all),
+        Part(correction.sweeps_eager, sequential=True),
+        Part(correction.energy_all),
+        Part(correction.book, sequential=True),
+    ),
 )
 
 STEP = (FORCES, Rounds((BROAD, NARROW, ISLANDS), (IMPULSES, CHECK), MAX_DETECT, needs=contacts), DRIFT, CORRECTION)
@@ -259,9 +267,15 @@ SAMPLE_NAMES = (*(name for name, _ in _SAMPLED), "kinetic", "potential")
 
 
 @ti.kernel
-def sample_all(fx: ti.template(), b: arr, par: arr, out: arr):
-    """Per body, the :data:`SAMPLE_NAMES` columns of ``out`` (one transfer for the host)."""
+def sample_all(fx: ti.template(), b: arr, par: arr, acc: arr, cnt: arr, out: arr, out_acc: arr, out_cnt: arr):
+    """Per body, the :data:`SAMPLE_NAMES` columns of ``out``, and copies of the run-wide
+    accumulators and counters: one launch, and no transfer where the outputs are the host's
+    own numpy arrays (on the CPU Taichi writes them in place)."""
     a = ti.static(Arrays(b, None, None, None, None, None, None, par, None, None, None, None))
+    for k in range(acc.shape[0]):
+        out_acc[k] = acc[k]
+    for k in range(cnt.shape[0]):
+        out_cnt[k] = cnt[k]
     for i in range(b.shape[0]):
         forces.orient(a, i)
         for k, col in ti.static(_sampled(fx)):
