@@ -107,6 +107,7 @@ class Model:
         self.real = ti.f32 if scene.precision == "f32" else ti.f64
         self.np_real = np.float32 if scene.precision == "f32" else np.float64
         self.calibration: dict[str, float] | None = None  # ms/step of each form, if measured
+        self._part_times: dict[str, float] | None = None  # per kernel, while profile(parts=True) runs
         self._calibrate = False
         cfg = ti.lang.impl.current_cfg()
         on_cpu = cfg.arch in (ti.x64, ti.arm64)
@@ -149,9 +150,7 @@ class Model:
             acc=alloc(ACCUMULATORS),
         )
         # where :meth:`sample` puts what it fetches (numpy: the kernel writes it in place)
-        self._out = np.zeros((n, len(stages.SAMPLE_NAMES)), dtype=self.np_real)
-        self._out_acc = np.zeros(ACCUMULATORS.size, dtype=np.float64)
-        self._out_cnt = np.zeros(COUNTERS.size, dtype=np.int64)
+        self._out, self._out_acc, self._out_cnt = self._sample_buffers(1)
 
         a = self.arrays
         p = scene.physics
@@ -226,9 +225,34 @@ class Model:
         output event's whole fetch)."""
         a = self.arrays
         stages.sample_all(self.fx, a.b, a.par, a.acc, a.cnt, self._out, self._out_acc, self._out_cnt)
-        out = self._out
-        sample = {name: out[:, k].copy() for k, name in enumerate(stages.SAMPLE_NAMES)}
-        return sample, self._totals(self._out_acc, self._out_cnt)
+        return self._unpack(self._out, self._out_acc, self._out_cnt, 0)
+
+    def advance_sampled(self, segments: list[int]) -> list[tuple[dict[str, np.ndarray], Totals]]:
+        """Advance ``segments[0]`` steps and take :meth:`sample_with_totals`, then
+        ``segments[1]`` steps and sample again, ...; the serial form does it all in one
+        kernel launch (a run's output events between two writes). The same bits as
+        :meth:`advance` and :meth:`sample_with_totals` in turn."""
+        if self.mode != "serial" or self._calibrate or len(segments) < 2:
+            out = []
+            for steps in segments:
+                self.advance(steps)
+                out.append(self.sample_with_totals())
+            return out
+        bufs = self._sample_buffers(len(segments))
+        stages.steps_serial_sampled(self.fx, np.asarray(segments, dtype=np.int32), *self.arrays, *bufs)
+        self._check_overflow()
+        return [self._unpack(*bufs, k) for k in range(len(segments))]
+
+    def _sample_buffers(self, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return (
+            np.zeros((count, self.n, len(stages.SAMPLE_NAMES)), dtype=self.np_real),
+            np.zeros((count, ACCUMULATORS.size), dtype=np.float64),
+            np.zeros((count, COUNTERS.size), dtype=np.int64),
+        )
+
+    def _unpack(self, out, out_acc, out_cnt, k: int) -> tuple[dict[str, np.ndarray], Totals]:
+        sample = {name: out[k, :, q].copy() for q, name in enumerate(stages.SAMPLE_NAMES)}
+        return sample, self._totals(out_acc[k], out_cnt[k])
 
     def totals(self) -> Totals:
         return self._totals(self.arrays.acc.to_numpy(), self.arrays.cnt.to_numpy())
@@ -305,11 +329,13 @@ class Model:
         self.calibration = per_step
         return 2 * (CALIBRATE_STEPS + 1)
 
-    def profile(self, steps: int) -> dict[str, float]:
+    def profile(self, steps: int, parts: bool = False) -> dict[str, float]:
         """Advance ``steps`` steps in the parallel form, stage by stage with a sync after
         each, and return wall seconds per step for each stage (:data:`stages.STAGE_NAMES`)
-        plus ``other`` (the rest of the step)."""
+        plus ``other`` (the rest of the step); with ``parts``, also for each kernel a stage
+        launches (``"stage.function"``, a sync after each; included in the stage's time)."""
         times = dict.fromkeys(stages.STAGE_NAMES, 0.0)
+        self._part_times = {} if parts else None
         total = 0.0
         self.prepare()
         ti.sync()
@@ -320,6 +346,8 @@ class Model:
             total += time.perf_counter() - t0
         self._check_overflow()
         times["other"] = max(0.0, total - sum(times.values()))
+        times.update(self._part_times or {})
+        self._part_times = None
         return {k: v / max(steps, 1) for k, v in times.items()}
 
     def _run(self, stage: stages.Stage, times: dict | None) -> None:
@@ -332,7 +360,15 @@ class Model:
         for _ in range(repeat):
             for part in parts:
                 if part.needs(self.fx):
+                    if self._part_times is None:
+                        stages.run_part(self.fx, part, *self.arrays)
+                        continue
+                    ti.sync()
+                    t1 = time.perf_counter()
                     stages.run_part(self.fx, part, *self.arrays)
+                    ti.sync()
+                    key = f"{stage.name}.{part.func.__name__}"
+                    self._part_times[key] = self._part_times.get(key, 0.0) + time.perf_counter() - t1
         if times is not None:
             ti.sync()
             times[stage.name] += time.perf_counter() - t0

@@ -24,7 +24,13 @@ from .io import checkpoint
 from .io.hdf5 import OutputError, RunWriter, read_run
 from .model import Model
 from .physics.schema import ACC_LEDGERS, BODY_LEDGERS, STATE_NAMES
+from .physics.stages import SAMPLE_NAMES
 from .scene import Scene
+
+# Output events between two writes of the model's state run in one launch (Simulation._batch):
+# at most this many, and this many bytes of samples
+BATCH_MAX = 64
+BATCH_BYTES = 32 << 20
 
 
 @dataclass(frozen=True)
@@ -139,6 +145,7 @@ class Diagnostics:
 
     name = "diagnostics"
     at_end = True
+    from_sample = True  # can run on a sample taken earlier in the same launch (Simulation._batch)
 
     def __init__(self, schedule: IterationInterval):
         self.schedule = schedule
@@ -174,6 +181,7 @@ class Guard:
 
     name = "guard"
     at_end = True
+    from_sample = True  # can run on a sample taken earlier in the same launch (Simulation._batch)
 
     def __init__(self, diagnostics: Diagnostics):
         self.diagnostics = diagnostics
@@ -204,6 +212,7 @@ class Snapshots:
 
     name = "snapshots"
     at_end = True
+    from_sample = False  # can run on a sample taken earlier in the same launch (Simulation._batch)
 
     def __init__(self, schedule: IterationInterval):
         self.schedule = schedule
@@ -219,6 +228,7 @@ class Checkpoints:
 
     name = "checkpoints"
     at_end = False
+    from_sample = False  # can run on a sample taken earlier in the same launch (Simulation._batch)
 
     def __init__(self, schedule: IterationInterval, diagnostics: Diagnostics):
         self.schedule = schedule
@@ -350,14 +360,15 @@ class Simulation:
                 self._events(0, first=True)
             while step < self.total:
                 interrupt.check()
-                nxt = min(min(o.schedule.next(step) for o in self.outputs if o.schedule is not None), self.total)
-                model.advance(nxt - step)
-                if bar is not None:
-                    if step == start_step:
-                        bar.set_description("running")
-                    bar.update(nxt - step)
-                step = nxt
-                self._events(step)
+                stops = self._batch(step)
+                sampled = model.advance_sampled([b - a for a, b in zip((step, *stops[:-1]), stops, strict=True)])
+                for nxt, got in zip(stops, sampled, strict=True):
+                    if bar is not None:
+                        if step == start_step:
+                            bar.set_description("running")
+                        bar.update(nxt - step)
+                    step = nxt
+                    self._events(step, sampled=got)
         except OutputError:
             writer.close()
             if not self.resume and writer.snapshots_written == 0:
@@ -382,12 +393,28 @@ class Simulation:
         due = [o for o in self.outputs if o.schedule is not None and (o.at_end if final else o.schedule(step))]
         return [o for o in self.outputs if o in due or (due and o.schedule is None)]
 
-    def _events(self, step: int, first: bool = False) -> None:
+    def _batch(self, step: int) -> list[int]:
+        """The event steps after ``step`` that one launch can run through
+        (:meth:`Model.advance_sampled`): up to the first where an output that needs the
+        model itself is due (a snapshot or checkpoint: ``from_sample`` false) or the end,
+        at most ``BATCH_MAX`` events and ``BATCH_BYTES`` of samples."""
+        cap = max(1, min(BATCH_MAX, BATCH_BYTES // (8 * self.model.n * len(SAMPLE_NAMES))))
+        stops = []
+        while len(stops) < cap and step < self.total:
+            step = min(min(o.schedule.next(step) for o in self.outputs if o.schedule is not None), self.total)
+            stops.append(step)
+            if not all(o.from_sample for o in self._due(step)):
+                break
+        return stops
+
+    def _events(self, step: int, first: bool = False, sampled: tuple | None = None) -> None:
+        """Run the outputs due at ``step`` on the sample taken there (``sampled``: taken by
+        :meth:`Model.advance_sampled`; else fetched now)."""
         due = self._due(step)
         if not due:
             return
         t = step * self.scene.time.dt
-        s, self.totals = self.model.sample_with_totals()
+        s, self.totals = sampled if sampled is not None else self.model.sample_with_totals()
         if first:
             self.x0_max = float(np.max(s["x"]))
             self.p0 = float(np.sum(s["potential"]))

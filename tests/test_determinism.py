@@ -200,3 +200,47 @@ def test_auto_mode_calibrates_between_the_thresholds_and_keeps_the_bits():
     small = Model(scene_mod.load(None, overrides=[("shelf.count", n - 1)]), mode="auto")
     small.advance(steps)
     assert small.calibration is None and small.mode == "serial"
+
+
+@pytest.mark.parametrize("islands", [False, True])
+def test_profile_times_every_part_and_keeps_the_bits(serial_result, islands):
+    """``Model.profile(parts=True)`` (the benchmarks' per-kernel table) times each kernel a
+    stage launches inside that stage's time, and steps exactly as ``advance`` does."""
+    from melange_ti.physics import stages
+
+    sc = scene_mod.loads(scene_text())
+    m = Model(sc, mode="parallel", islands=islands)
+    m.advance(STEPS - 20)
+    prof = m.profile(20, parts=True)
+    parts = {k: v for k, v in prof.items() if "." in k}
+    for st in stages.STAGES:
+        if st.islands_only and not islands:
+            continue
+        launched = st.without_islands if (not islands and st.without_islands) else st.parallel
+        names = {f"{st.name}.{p.func.__name__}" for p in launched if p.needs(m.fx)}
+        assert names <= parts.keys(), (st.name, names - parts.keys())
+        assert all(parts[k] > 0 for k in names)
+        assert prof[st.name] >= sum(parts[k] for k in names)
+    s, tot = serial_result
+    assert_bitwise(s, m.sample(), f"profiled parallel (islands {islands}) vs serial")
+    assert tot == m.totals()
+
+
+def test_sampled_advance_in_one_launch_keeps_the_bits(serial_result):
+    """``Model.advance_sampled`` (a run's output events between two writes, in one launch
+    of the serial form) gives each sample and total exactly as ``advance`` and
+    ``sample_with_totals`` in turn, and leaves the model where ``advance`` would."""
+    sc = scene_mod.loads(scene_text())
+    segments = [1, 299, 200, 500, 0, 1000]
+    batched, stepped = Model(sc, mode="serial"), Model(sc, mode="serial")
+    got = batched.advance_sampled(segments)
+    assert len(got) == len(segments)
+    for k, steps in enumerate(segments):
+        stepped.advance(steps)
+        s, tot = stepped.sample_with_totals()
+        assert_bitwise(s, got[k][0], f"sample {k}")
+        assert tot == got[k][1]
+        assert_bitwise(s, stepped.sample(), f"sample_with_totals vs sample, {k}")
+    s, tot = serial_result
+    assert_bitwise(s, batched.sample(), "batched vs advance(STEPS)")
+    assert tot == batched.totals() == got[-1][1]

@@ -266,19 +266,61 @@ def _sampled(fx) -> tuple:
 SAMPLE_NAMES = (*(name for name, _ in _SAMPLED), "kinetic", "potential")
 
 
-@ti.kernel
-def sample_all(fx: ti.template(), b: arr, par: arr, acc: arr, cnt: arr, out: arr, out_acc: arr, out_cnt: arr):
-    """Per body, the :data:`SAMPLE_NAMES` columns of ``out``, and copies of the run-wide
-    accumulators and counters: one launch, and no transfer where the outputs are the host's
-    own numpy arrays (on the CPU Taichi writes them in place)."""
-    a = ti.static(Arrays(b, None, None, None, None, None, None, par, None, None, None, None))
-    for k in range(acc.shape[0]):
-        out_acc[k] = acc[k]
-    for k in range(cnt.shape[0]):
-        out_cnt[k] = cnt[k]
+@ti.func
+def sample_into(fx: ti.template(), a: ti.template(), out: ti.template(), out_acc: ti.template(), out_cnt: ti.template(), k):
+    """Sample ``k`` of ``out`` (K, N, :data:`SAMPLE_NAMES`) and copies of the run-wide
+    accumulators and counters in row ``k`` of ``out_acc``, ``out_cnt``."""
+    b = ti.static(a.b)
+    for c in range(a.acc.shape[0]):
+        out_acc[k, c] = a.acc[c]
+    for c in range(a.cnt.shape[0]):
+        out_cnt[k, c] = a.cnt[c]
     for i in range(b.shape[0]):
         forces.orient(a, i)
-        for k, col in ti.static(_sampled(fx)):
-            out[i, k] = b[i, col]
-        out[i, ti.static(len(SAMPLED_COLUMNS))] = forces.kinetic_energy(fx, a, i)
-        out[i, ti.static(len(SAMPLED_COLUMNS) + 1)] = forces.potential_energy(fx, a, i)
+        for q, col in ti.static(_sampled(fx)):
+            out[k, i, q] = b[i, col]
+        out[k, i, ti.static(len(SAMPLED_COLUMNS))] = forces.kinetic_energy(fx, a, i)
+        out[k, i, ti.static(len(SAMPLED_COLUMNS) + 1)] = forces.potential_energy(fx, a, i)
+
+
+@ti.kernel
+def sample_all(fx: ti.template(), b: arr, par: arr, acc: arr, cnt: arr, out: arr, out_acc: arr, out_cnt: arr):
+    """Sample 0 of ``out`` (:func:`sample_into`): one launch, and no transfer where the
+    outputs are the host's own numpy arrays (on the CPU Taichi writes them in place)."""
+    a = ti.static(Arrays(b, None, None, None, None, None, None, par, None, None, cnt, acc))
+    sample_into(fx, a, out, out_acc, out_cnt, 0)
+
+
+@ti.kernel
+def steps_serial_sampled(
+    fx: ti.template(),
+    segments: arr,
+    b: arr,
+    bi: arr,
+    cd: arr,
+    cp: arr,
+    nl: arr,
+    nr: arr,
+    cells: arr,
+    par: arr,
+    scr: arr,
+    cfg: arr,
+    cnt: arr,
+    acc: arr,
+    out: arr,
+    out_acc: arr,
+    out_cnt: arr,
+):
+    """:func:`steps_serial` for ``segments[0]`` steps, sample 0 (:func:`sample_into`), then
+    ``segments[1]`` steps, sample 1, ...: a run's output events between two writes in one
+    launch. The same bits as one call per segment (the tilts' cos and sin are the ones
+    :func:`forces.orient` would give)."""
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc))
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        for i in range(b.shape[0]):
+            forces.orient(a, i)
+        for k in range(segments.shape[0]):
+            for _step in range(segments[k]):
+                one_step(fx, a)
+            sample_into(fx, a, out, out_acc, out_cnt, k)
