@@ -69,13 +69,6 @@ CALIBRATE_MIN_N = 2000
 ISLANDS_MIN_THREADS = 4
 CALIBRATE_STEPS = 8  # timed steps per form, after one untimed step each (compilation)
 
-# The narrow phase's candidate lists (1 kB per iceberg) are kept at or below this N, in the
-# serial form. Measured on 2 cores, active state: they cut the step by ~20% at N = 400 and
-# 4000 (all in cache), but were level or slower at 40,000 (serial) and slower at 100,000
-# (parallel: narrow phase 13.1 -> 14.3 ms), where their memory traffic costs more than the
-# search they save.
-LISTS_MAX_N = 20000
-
 _DTYPES = {"f64": ti.f64, "i32": ti.i32, "i64": ti.i64}
 
 
@@ -125,9 +118,11 @@ class Model:
         self.contacts = self.fx.contacts
         slots = scene.contacts.max_partners if self.fx.collisions else 1
         ncells = 1 << max(2, math.ceil(math.log2(max(n, 4)))) if self.fx.collisions else 4
-        # candidate lists for the narrow phase, used where they were measured to pay (see
-        # LISTS_MAX_N). Contacts are bit-for-bit the same with and without them.
-        self.lists = self.fx.collisions and mode == "serial" and n <= LISTS_MAX_N
+        # candidate lists for the narrow phase (272 bytes per iceberg at 28 discs), in both
+        # forms: on 2 cores they cut the step by ~20% at N = 400 and 4000 and the narrow
+        # phase by ~12% at N = 100,000 (docs/performance.md). Contacts are bit-for-bit the
+        # same without them.
+        self.lists = bool(self.fx.collisions)
         nc = n if self.contacts else 1
         nlists = n if self.lists else 1
 
@@ -140,7 +135,7 @@ class Model:
             bi=alloc(BODY_INTS, n),
             cd=alloc(CONTACTS, slots + 1, nc),  # slot `slots`: the wall contact's deferred terms (islands)
             cp=ti.ndarray(ti.i32, shape=(slots, nc)),
-            nl=ti.ndarray(ti.i32, shape=(nlists, narrow.LIST_WIDTH)),
+            nl=ti.ndarray(ti.i32, shape=(nlists, narrow.list_width(scene.contacts.discs // 4))),
             nr=alloc(LIST_POSES, nlists, narrow.ENTRIES),
             cells=alloc(CELLS, ncells + 1),
             par=alloc(PARAMS),
@@ -421,4 +416,4 @@ class Model:
         return pairs, wall
 
 
-__all__ = ["Model", "Totals", "ContactOverflow", "SERIAL_MAX_N", "LISTS_MAX_N", "CALIBRATE_MIN_N"]
+__all__ = ["Model", "Totals", "ContactOverflow", "SERIAL_MAX_N", "CALIBRATE_MIN_N"]

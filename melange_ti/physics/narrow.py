@@ -5,15 +5,18 @@ j > i go into its slots sorted by j, so the contact list does not depend on the 
 count. A contact is kept if its gap may close within this step (speculative contacts: no
 tunnelling at any speed); the wall's contact is found by :func:`.effects.wall.detect`.
 
-**Candidate lists.** In the serial form (``Config.LISTS``) each body keeps, per partner,
+**Candidate lists.** Where icebergs collide (``Config.LISTS``) each body keeps, per partner,
 the disc pairs within touching distance plus a skin, and visits only those while the pair
 has not moved by more than the skin allows (:func:`narrow`): the same contacts, bit for bit,
-for less work. ``nl`` (N, ENTRIES * (2 + PAIRS), i32) holds body i's lists, one entry e per
-partner: the partner (:func:`list_partner`, -1: free), the count of kept pairs
-(:func:`list_count`, -1: none kept) and the pairs' codes (:func:`list_code`), one 1 kB row
-per body with the partners and counts in its first cache line. ``nr`` holds the pose each
-list was made at (:data:`.schema.LIST_POSES`); ``BodyInt.NEXT_ENTRY`` is the entry a new
-partner takes (round robin).
+for less work. ``nl`` (N, :func:`list_width`, i32) holds body i's lists, one entry e per
+partner: the partner (:func:`list_partner`, -1: free), the count of kept runs
+(:func:`list_count`, -1: none kept) and the runs' codes (:func:`list_code`): a run is one
+disc of i, one face of j and consecutive discs of j on it (the pairs within reach of one
+disc of i on a face of j are consecutive), so one code stands for a whole row of pairs and
+a body's row is 272 bytes at 28 discs (a quarter of what one code per pair took), its
+partners and counts in the first cache line. ``nr`` holds the
+pose each list was made at (:data:`.schema.LIST_POSES`); ``BodyInt.NEXT_ENTRY`` is the
+entry a new partner takes (round robin).
 """
 
 import taichi as ti
@@ -26,20 +29,30 @@ from .schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Par
 # Candidate lists: partners kept per body, disc pairs kept per partner, and the skin (a
 # fraction of the smaller disc radius) added to the touching distance.
 ENTRIES = 4
-PAIRS = 62
+MAX_RUNS = 62  # runs of kept pairs per entry (:func:`pack_pair`): k + 8 for k discs per face, at most this
 SKIN = 0.2
 
-# A kept disc pair is one i32 code: i's face (2 bits), i's disc on it (6), j's face (2),
-# j's disc (6); so lists are kept only up to MAX_FACE_DISCS discs per face.
+# A kept run is one i32 code: i's face (2 bits), i's disc on it (6), j's face (2), j's
+# first disc (6), how many consecutive discs of j (7, from bit _LEN_SHIFT); so lists are
+# kept only up to MAX_FACE_DISCS discs per face.
 FACE_BITS = 2
 DISC_BITS = 6
 MAX_FACE_DISCS = 1 << DISC_BITS
 _FB_SHIFT = DISC_BITS
 _IA_SHIFT = DISC_BITS + FACE_BITS
 _FA_SHIFT = 2 * DISC_BITS + FACE_BITS
+_LEN_SHIFT = 2 * DISC_BITS + 2 * FACE_BITS
 
 
-LIST_WIDTH = ENTRIES * (2 + PAIRS)  # a body's row of ``nl``
+def list_runs(k: int) -> int:
+    """Runs kept per entry for ``k`` discs per face: about one per disc of i facing j, and
+    room for a corner (measured: a smaller row of ``nl`` is a faster narrow phase at large N)."""
+    return min(MAX_RUNS, k + 8)
+
+
+def list_width(k: int) -> int:
+    """A body's row of ``nl`` for ``k`` discs per face."""
+    return ENTRIES * (2 + list_runs(k))
 
 
 @ti.func
@@ -50,14 +63,14 @@ def list_partner(e):
 
 @ti.func
 def list_count(e):
-    """Position of entry e's count of kept pairs."""
+    """Position of entry e's count of kept runs."""
     return ENTRIES + e
 
 
 @ti.func
-def list_code(e, q):
-    """Position of entry e's q-th kept pair."""
-    return 2 * ENTRIES + e * PAIRS + q
+def list_code(e, q, runs):
+    """Position of entry e's q-th kept run (``runs`` per entry)."""
+    return 2 * ENTRIES + e * runs + q
 
 
 @ti.func
@@ -68,7 +81,7 @@ def pack_pair(fa, ia, fb, ib):
 @ti.func
 def unpack_pair(code):
     return (
-        code >> _FA_SHIFT,
+        (code >> _FA_SHIFT) & ((1 << FACE_BITS) - 1),
         (code >> _IA_SHIFT) & (MAX_FACE_DISCS - 1),
         (code >> _FB_SHIFT) & ((1 << FACE_BITS) - 1),
         code & (MAX_FACE_DISCS - 1),
@@ -139,6 +152,19 @@ def pair_term(fb, perp, off, d2, au, av, ri, rj):
 
 
 @ti.func
+def add_pair(fb, perp, off, d2, au, av, ri, rj, motion, rch, near, standby, gap):
+    """A disc pair within touching distance adds its term to the sums of the pairs closing
+    within this step (``near``, weighted by ``motion - g``) and of all pairs (``standby``,
+    by ``rch - g``), and its gap to the smallest; returns the three."""
+    g, term = pair_term(fb, perp, off, d2, au, av, ri, rj)
+    n, sb = near, standby
+    if g < motion:
+        n += (motion - g) * term
+    sb += (rch - g) * term
+    return n, sb, ti.min(gap, g)
+
+
+@ti.func
 def insert_contact(a: ti.template(), i, j, px, pz, nx, nz, gap):
     cnt = a.bi[i, BodyInt.NCONTACT]
     if cnt >= a.cfg[Config.SLOTS]:
@@ -172,9 +198,9 @@ def narrow(a: ti.template(), i, j, rch, motion):
 
     Finding those pairs: on each face of i, the discs within reach of j's box; for each, on
     each face of j, the discs within reach of it (an index range from its distance along the
-    face). Where lists are on (``a.cfg[Config.LISTS]``: the serial form up to ``LISTS_MAX_N``
-    icebergs), that search also keeps, in i's candidate list for j (``nl``, ``nr``), every
-    disc pair within touching distance plus a skin, in the same order, with the pair's
+    face). Where lists are on (``a.cfg[Config.LISTS]``: whenever icebergs collide), that
+    search also keeps, in i's candidate list for j (``nl``, ``nr``), every disc pair
+    within touching distance plus a skin, as runs in the same order, with the pair's
     relative pose. While neither body has moved relative to the other by more than the skin allows,
     later steps visit only the kept pairs. They contain every pair within touching distance
     and the order is the same, so a contact is bit-for-bit the same either way; the list
@@ -182,6 +208,7 @@ def narrow(a: ti.template(), i, j, rch, motion):
     """
     b = ti.static(a.b)
     k = ti.cast(a.cfg[Config.K], ti.i32)
+    runs = ti.min(MAX_RUNS, k + 8)  # list_runs(k)
     ci, si, cj, sj = b[i, Body.COS], b[i, Body.SIN], b[j, Body.COS], b[j, Body.SIN]
     xi, zi, xj, zj = b[i, Body.X], b[i, Body.Z], b[j, Body.X], b[j, Body.Z]
     hwi, hhi, ri = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], b[i, Body.RADIUS]
@@ -236,23 +263,21 @@ def narrow(a: ti.template(), i, j, rch, motion):
     if use:
         fa_prev = -1
         au0, av0, dau, dav = 0.0, 0.0, 0.0, 0.0
-        base = list_code(entry, 0)
+        base = list_code(entry, 0, runs)
         for q in range(a.nl[i, list_count(entry)]):
-            fa, ia, fb, ib = unpack_pair(a.nl[i, base + q])
+            code = a.nl[i, base + q]
+            fa, ia, fb, ib0 = unpack_pair(code)
             if fa != fa_prev:
                 fa_prev = fa
                 au0, av0, dau, dav = face_in_j(fa, k, hwi, hhi, ri, cu, cv, c, s)
             au = au0 + ia * dau
             av = av0 + ia * dav
             perp, along, st, _inv = j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv)
-            off = along - ib * st
-            d2 = perp * perp + off * off
-            if d2 < touch2 and d2 > 0:
-                g, term = pair_term(fb, perp, off, d2, au, av, ri, rj)
-                if g < motion:
-                    near += (motion - g) * term
-                standby += (rch - g) * term
-                gap = ti.min(gap, g)
+            for ib in range(ib0, ib0 + (code >> _LEN_SHIFT)):
+                off = along - ib * st
+                d2 = perp * perp + off * off
+                if d2 < touch2 and d2 > 0:
+                    near, standby, gap = add_pair(fb, perp, off, d2, au, av, ri, rj, motion, rch, near, standby, gap)
     else:
         # search, keeping the pairs within touch + skin in a (new or reused) list entry
         skin = 0.0
@@ -266,6 +291,7 @@ def narrow(a: ti.template(), i, j, rch, motion):
                 count = 0
         keep = touch + skin
         keep2 = keep * keep
+        last = -1  # the last pair kept (its code without the run length)
         grow = rch + skin
         faces = 4
         if boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, grow):
@@ -298,17 +324,21 @@ def narrow(a: ti.template(), i, j, rch, motion):
                             off = along - ib * st
                             d2 = perp * perp + off * off
                             if d2 < keep2 and count >= 0:
-                                if count < PAIRS:
-                                    a.nl[i, list_code(entry, count)] = pack_pair(fa, ia, fb, ib)
+                                key = pack_pair(fa, ia, fb, ib)
+                                if count > 0 and key == last + 1 and ib > 0:
+                                    # the next disc of j after the last kept: extend its run
+                                    a.nl[i, list_code(entry, count - 1, runs)] += 1 << _LEN_SHIFT
+                                    last = key
+                                elif count < runs:
+                                    a.nl[i, list_code(entry, count, runs)] = key | (1 << _LEN_SHIFT)
+                                    last = key
                                     count += 1
                                 else:
-                                    count = -1  # too many pairs to keep: search next step
+                                    count = -1  # too many runs to keep: search next step
                             if d2 < touch2 and d2 > 0:
-                                g, term = pair_term(fb, perp, off, d2, au, av, ri, rj)
-                                if g < motion:
-                                    near += (motion - g) * term
-                                standby += (rch - g) * term
-                                gap = ti.min(gap, g)
+                                near, standby, gap = add_pair(
+                                    fb, perp, off, d2, au, av, ri, rj, motion, rch, near, standby, gap
+                                )
         if lists:
             a.nl[i, list_partner(entry)] = j
             a.nl[i, list_count(entry)] = count

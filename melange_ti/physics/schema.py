@@ -269,7 +269,7 @@ def _params(effect_params: tuple[Column, ...]) -> Table:
 class Arrays(NamedTuple):
     """The model's ndarrays, in the order every kernel takes them (see :class:`Table`).
 
-    ``nl`` (N, ENTRIES * (2 + PAIRS), i32): candidate lists; see :mod:`.narrow`."""
+    ``nl`` (N, narrow.list_width(k), i32): candidate lists; see :mod:`.narrow`."""
 
     b: object
     bi: object
