@@ -9,7 +9,12 @@ that; the step then detects again (:func:`outran`, the ``check`` stage).
 
 import taichi as ti
 
-from .schema import Body, BodyInt, Cell, Config, Param, Scratch
+from .columns import Body, BodyInt, Cell, Config, Param, Scratch
+
+# The parallel form's maximum speed: each chunk of bodies takes its own, then one atomic per
+# chunk (a maximum is exact in any order: the same bits as one atomic per body, which made
+# two threads take turns at one cache line 100,000 times a step; docs/performance.md)
+CHUNK = 256
 
 
 @ti.func
@@ -20,21 +25,40 @@ def speed(a: ti.template(), i):
 
 
 @ti.func
-def reach(a: ti.template(), i):
-    """How far body i may move this step (stored in ``Body.REACH``; ``Body.MOTION`` at its
-    current velocities)."""
-    dt = a.par[Param.DT]
-    motion = dt * speed(a, i)
-    a.b[i, Body.MOTION] = motion
-    r = motion + dt * (1.0 + a.par[Param.RESTITUTION]) * a.scr[Scratch.SPEED_MAX]
-    a.b[i, Body.REACH] = r
-    return r
+def motion(a: ti.template(), i):
+    """How far body i moves this step at its current velocities (stored in
+    ``Body.MOTION``); returns its :func:`speed`."""
+    v = speed(a, i)
+    a.b[i, Body.MOTION] = a.par[Param.DT] * v
+    return v
+
+
+@ti.func
+def margin(a: ti.template()):
+    """What one impulse from the fastest body may add to any body's motion this step."""
+    return a.par[Param.DT] * (1.0 + a.par[Param.RESTITUTION]) * a.scr[Scratch.SPEED_MAX]
+
+
+@ti.func
+def reach(a: ti.template(), i, mg):
+    """How far body i may move this step: its motion plus the margin ``mg`` (:func:`margin`).
+    Computed where it is needed rather than stored, so that the broad phase needs one pass
+    over the bodies, not two."""
+    return a.b[i, Body.MOTION] + mg
+
+
+@ti.func
+def set_reach_max(a: ti.template()):
+    """``Scratch.REACH_MAX``, the largest :func:`reach`, from the fastest speed alone: adding
+    the same margin and scaling by dt are monotone in floating point, so the largest reach
+    is the fastest body's, bit for bit."""
+    a.scr[Scratch.REACH_MAX] = a.par[Param.DT] * a.scr[Scratch.SPEED_MAX] + margin(a)
 
 
 @ti.func
 def outran(a: ti.template(), i):
     """1 if body i now moves farther this step than the reach it was searched with."""
-    return ti.cast(a.par[Param.DT] * speed(a, i) > a.b[i, Body.REACH] * (1.0 + 1e-9) + 1e-12, ti.i32)
+    return ti.cast(a.par[Param.DT] * speed(a, i) > reach(a, i, margin(a)) * (1.0 + 1e-9) + 1e-12, ti.i32)
 
 
 @ti.func
@@ -67,12 +91,9 @@ def broad_serial(fx: ti.template(), a: ti.template()):
     n = a.b.shape[0]
     vmax = 0.0
     for i in range(n):
-        vmax = ti.max(vmax, speed(a, i))
+        vmax = ti.max(vmax, motion(a, i))
     a.scr[Scratch.SPEED_MAX] = vmax
-    rmax = 0.0
-    for i in range(n):
-        rmax = ti.max(rmax, reach(a, i))
-    a.scr[Scratch.REACH_MAX] = rmax
+    set_reach_max(a)
     if ti.static(fx.collisions):
         size = cell_size(a)
         ncells = a.cfg[Config.NCELLS]
@@ -89,17 +110,16 @@ def broad_serial(fx: ti.template(), a: ti.template()):
 
 # ---------------------------------------------------------------- the stage, parallel form
 @ti.func
-def speed_all(fx: ti.template(), a: ti.template()):
+def motion_all(fx: ti.template(), a: ti.template()):
+    """Every body's motion, the fastest speed and the largest reach."""
     a.scr[Scratch.SPEED_MAX] = 0.0
-    for i in range(a.b.shape[0]):
-        ti.atomic_max(a.scr[Scratch.SPEED_MAX], speed(a, i))
-
-
-@ti.func
-def reach_all(fx: ti.template(), a: ti.template()):
-    a.scr[Scratch.REACH_MAX] = 0.0
-    for i in range(a.b.shape[0]):
-        ti.atomic_max(a.scr[Scratch.REACH_MAX], reach(a, i))
+    n = a.b.shape[0]
+    for c in range((n + CHUNK - 1) // CHUNK):
+        vmax = 0.0
+        for i in range(c * CHUNK, ti.min(n, (c + 1) * CHUNK)):
+            vmax = ti.max(vmax, motion(a, i))
+        ti.atomic_max(a.scr[Scratch.SPEED_MAX], vmax)
+    set_reach_max(a)
 
 
 @ti.func

@@ -21,7 +21,7 @@ entry a new partner takes (round robin).
 
 import taichi as ti
 
-from .broad import cell_size
+from .broad import cell_size, margin, reach
 from .contacts import face_line, line_window
 from .effects import wall
 from .schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Param
@@ -336,9 +336,7 @@ def narrow(a: ti.template(), i, j, rch, motion):
                                 else:
                                     count = -1  # too many runs to keep: search next step
                             if d2 < touch2 and d2 > 0:
-                                near, standby, gap = add_pair(
-                                    fb, perp, off, d2, au, av, ri, rj, motion, rch, near, standby, gap
-                                )
+                                near, standby, gap = add_pair(fb, perp, off, d2, au, av, ri, rj, motion, rch, near, standby, gap)
         if lists:
             a.nl[i, list_partner(entry)] = j
             a.nl[i, list_count(entry)] = count
@@ -379,12 +377,14 @@ def detect(fx: ti.template(), a: ti.template(), i, size):
         xi = b[i, Body.X]
         zi = b[i, Body.Z]
         home = ti.cast(ti.floor(xi / size), ti.i64)
+        mg = margin(a)
+        rch_i = reach(a, i, mg)
         for dc in ti.static(range(-1, 2)):
             cell = ti.cast((home + dc) & (ncells - 1), ti.i32)
             for slot in range(a.cells[cell, Cell.START], a.cells[cell + 1, Cell.START]):
                 j = a.bi[slot, BodyInt.SORTED]
                 if j > i:
-                    rch = b[i, Body.REACH] + b[j, Body.REACH]
+                    rch = rch_i + reach(a, j, mg)
                     dx = xi - b[j, Body.X]
                     dz = zi - b[j, Body.Z]
                     lim = b[i, Body.BOUND] + b[j, Body.BOUND] + rch

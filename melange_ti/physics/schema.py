@@ -65,7 +65,6 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
         Column("THICK", "constant", "w", "thickness, along the body v axis", "thickness"),
         Column("RADIUS", "constant", "w", "radius of the collision discs"),
         Column("BOUND", "constant", "w", "bounding radius, half the diagonal"),
-        Column("REACH", "scratch", "w", "broad phase: how far the body may move this step"),
         Column("MOTION", "scratch", "w", "broad phase: how far it moves at its current velocities"),
     )
     line2 = [

@@ -110,8 +110,7 @@ BROAD = Stage(
     "broad",
     broad.broad_serial,
     (
-        Part(broad.speed_all),
-        Part(broad.reach_all),
+        Part(broad.motion_all),
         Part(broad.bin_count, needs=collisions),
         Part(broad.bin_scan, sequential=True, needs=collisions),
         Part(broad.bin_fill, needs=collisions),

@@ -6,6 +6,7 @@ the impulse pass and the correction visit it before the body's partners."""
 
 import taichi as ti
 
+from ..broad import margin, reach
 from ..columns import Body, BodyInt, Column, Config, Param
 from ..contacts import disc_local, to_world
 from .base import Effect, Key
@@ -33,7 +34,7 @@ def detect(a: ti.template(), i):
     b = ti.static(a.b)
     c, s = b[i, Body.COS], b[i, Body.SIN]
     hw, hh, r = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], b[i, Body.RADIUS]
-    rch = b[i, Body.REACH]
+    rch = reach(a, i, margin(a))
     motion = b[i, Body.MOTION]
     wall_x = a.par[Param.WALL_X]
     a.bi[i, BodyInt.WALL_ON] = 0
