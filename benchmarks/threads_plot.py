@@ -50,7 +50,7 @@ def main() -> None:
         ax.set_yticks([q + 0.4 - width / 2 for q in range(len(kernels))], kernels)
         ax.invert_yaxis()
         ax.set_xlabel("ms per step")
-        ax.set_title(f"N = 100,000, t = 30, parallel form, islands off ({commit})")
+        ax.set_title(f"parallel form, per kernel ({commit})")
         ax.legend()
     fig.tight_layout()
     fig.savefig(folder / "threads.png", dpi=110)

@@ -641,7 +641,7 @@ def test_broad_phase_reach_is_exact():
     fastest speed alone (both monotone in floating point). Against numpy, exactly, with
     random velocities over more bodies than one chunk of the parallel maximum (1,000 > 256)
     and the fastest body in the last, partial chunk."""
-    from melange_ti.physics import broad, stages
+    from melange_ti.physics import broad
     from melange_ti.physics.schema import Body, Param, Scratch
 
     sc = scene_mod.load(None, overrides=[("shelf.count", 1000)])
@@ -651,8 +651,7 @@ def test_broad_phase_reach_is_exact():
     s["vx"], s["vz"], s["omega"] = rng.normal(0, 0.1, (3, 1000))
     s["vx"][990] = 3.0
     m.set_state(s)
-    m.prepare()
-    m._run(stages.BROAD, None)
+    m.contact_pairs()  # the broad and narrow phases, parallel form
     b, par, scr = m.arrays.b.to_numpy(), m.arrays.par.to_numpy(), m.arrays.scr.to_numpy()
     speed = np.sqrt(b[:, Body.VX] ** 2 + b[:, Body.VZ] ** 2) + np.abs(b[:, Body.OM]) * b[:, Body.BOUND]
     dt = par[Param.DT]
