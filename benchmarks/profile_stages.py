@@ -3,6 +3,8 @@
     python benchmarks/profile_stages.py --n 100000 --warm 3000 --steps 20
     python benchmarks/profile_stages.py --n 100000 --warm 4500 --steps 20 --islands off --parts
     python benchmarks/profile_stages.py --n 100000 --warm 3000 --islands off --threads 1
+    python benchmarks/profile_stages.py --n 10000 --warm 3000 --steps 5 --islands on --parts \
+        --arch vulkan --state /tmp/shelf_10k.npz --csv benchmarks/results/device/lavapipe_n10000.csv
 
 The paper shelf of ``--n`` icebergs with tilts of 0.05 rad is advanced ``--warm`` steps in
 the parallel form, then profiled for ``--steps`` steps with a sync after every stage, with
@@ -10,6 +12,12 @@ islands off and on (the same state: both forms give the same bits); ``--parts`` 
 per kernel a stage launches (a sync after each). ``--threads`` caps Taichi's CPU threads
 (default: all): the same command at 1 and 2 threads shows how well each parallel stage
 spreads over the cores.
+
+``--arch vulkan`` profiles the device form (its parallel parts, docs/devices.md); with
+``--state FILE.npz`` the warm state is read from FILE if it exists (else computed on the CPU
+and written there first, in a child process), so that a slow device is not warmed itself.
+``--csv`` writes one row per kernel: milliseconds per step, share of the step, and whether
+it runs on one thread.
 """
 
 from __future__ import annotations
@@ -25,23 +33,59 @@ def main() -> None:
     p.add_argument("--islands", choices=("off", "on", "both"), default="both")
     p.add_argument("--parts", action="store_true")
     p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--arch", default="cpu", choices=("cpu", "gpu", "cuda", "vulkan"))
+    p.add_argument("--state", help="npz file of the warm state (read if present, else written)")
+    p.add_argument("--csv", help="write the per-kernel profile (with --parts) to this CSV file")
     a = p.parse_args()
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import numpy as np
+
     from melange_ti import runtime, scene
 
-    runtime.init("cpu", threads=a.threads, precision="f64")
+    if a.state and a.arch != "cpu" and not Path(a.state).exists():
+        warm = [sys.executable, __file__, "--n", str(a.n), "--warm", str(a.warm), "--steps", "0", "--state", a.state]
+        subprocess.run([*warm, "--islands", "off"], check=True)
+    runtime.init(a.arch, threads=a.threads, precision="f64")
     from melange_ti.model import Model
+    from melange_ti.physics import stages
 
     sc = scene.load(None, overrides=[("shelf.count", a.n), ("shelf.tilt", 0.05)])
+    one_thread = {
+        f"{st.name}.{part.func.__name__}": part.sequential
+        for st in stages.STAGES
+        for parts in (st.parallel, st.without_islands or (), st.device or ())
+        for part in parts
+    }
+    rows = []
     for islands in {"off": (False,), "on": (True,), "both": (False, True)}[a.islands]:
         m = Model(sc, mode="parallel", islands=islands)
-        m.advance(a.warm)
+        if a.state and Path(a.state).exists():
+            m.set_state(dict(np.load(a.state)))
+        else:
+            m.advance(a.warm)
+            if a.state:
+                np.savez(a.state, **m.state())
+        if a.steps == 0:
+            continue
         prof = m.profile(a.steps, parts=a.parts)
         stage = {k: v for k, v in prof.items() if "." not in k}
+        total = sum(stage.values())
         cells = ", ".join(f"{k} {v * 1e3:.2f}" for k, v in stage.items())
-        print(f"islands {'on ' if islands else 'off'}: {cells}; total {sum(stage.values()) * 1e3:.1f} ms/step", flush=True)
+        print(f"{runtime.backend()}, islands {'on ' if islands else 'off'}: {cells}; total {total * 1e3:.1f} ms/step", flush=True)
         for k, v in prof.items():
             if "." in k:
-                print(f"    {k:32s} {v * 1e3:6.2f} ms/step", flush=True)
+                flag = "  one thread" if one_thread.get(k) else ""
+                print(f"    {k:32s} {v * 1e3:8.2f} ms/step {v / total:7.1%}{flag}", flush=True)
+                rows.append((runtime.backend(), a.n, int(islands), k, v * 1e3, v / total, int(bool(one_thread.get(k)))))
+    if a.csv and rows:
+        Path(a.csv).parent.mkdir(parents=True, exist_ok=True)
+        with open(a.csv, "w") as f:
+            f.write("backend,n,islands,kernel,ms_per_step,share,one_thread\n")
+            for r in rows:
+                f.write(f"{r[0]},{r[1]},{r[2]},{r[3]},{r[4]:.4f},{r[5]:.4f},{r[6]}\n")
 
 
 if __name__ == "__main__":

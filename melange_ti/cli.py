@@ -23,7 +23,13 @@ class _Parser(argparse.ArgumentParser):
 
 def _common_run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", default=[], help="override a scene key, e.g. time.dt=0.005")
-    p.add_argument("--arch", choices=("cpu", "gpu"), default="cpu", help="Taichi backend (gpu: untested where none is present)")
+    p.add_argument(
+        "--arch",
+        choices=("cpu", "gpu", "cuda", "vulkan"),
+        default="cpu",
+        help="Taichi backend: cpu (bit-for-bit reproducible), gpu (Taichi's choice: CUDA, then Vulkan), cuda or vulkan; "
+        "a device is probed first and refused in one line if it cannot run the scene (docs/devices.md)",
+    )
 
 
 SCENE_HELP = "scene TOML file (default: the bundled paper scene; keys: docs/scenes.md)"
@@ -60,6 +66,9 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--workers", type=int, help="local worker processes (default: CPU count)")
     e.add_argument("--scheduler", help="address of an existing Dask scheduler")
     e.add_argument("--set", action="append", metavar="KEY=V1,V2,...", default=[], help="override; comma lists are swept")
+    e.add_argument(
+        "--arch", choices=("cpu", "gpu", "cuda", "vulkan"), default="cpu", help="Taichi backend of every worker (as for run)"
+    )
 
     pl = sub.add_parser("plot", help="the paper's figures and the energy budget from run files")
     pl.add_argument("runs", nargs="+")
@@ -77,6 +86,13 @@ def build_parser() -> argparse.ArgumentParser:
     rd.add_argument("--every", type=int, default=1, help="use every k-th snapshot (default 1)")
     rd.add_argument("--fps", type=int, default=20, help="frames per second of the movie (default 20)")
     rd.add_argument("--width-m", type=float, help="iceberg width in metres for the time label (default: the run's scene.width_m)")
+
+    sub.add_parser(
+        "devices",
+        help="the Taichi backends this machine can run melange_ti on",
+        description="Probe each backend (cpu, cuda, vulkan) in a child process with a small f64 and f32 kernel and say "
+        "which --arch values work here, and what --arch gpu picks (docs/devices.md).",
+    )
 
     b = sub.add_parser("bench", help="benchmarks: scaling, accuracy, effects, peers")
     b.add_argument("which", choices=("scaling", "accuracy", "effects", "peers"))
@@ -157,6 +173,26 @@ def _cmd_run(args) -> int:
     return 0
 
 
+def _cmd_devices(args) -> int:
+    from . import runtime
+    from .errors import ArchError
+
+    print("cpu: usable, f64 and f32 (bit-for-bit reproducible)")
+    for arch in ("cuda", "vulkan", "gpu"):
+        works = []
+        for precision in ("f64", "f32"):
+            try:
+                works.append((precision, runtime.probe(arch, precision)))
+            except ArchError as exc:
+                why = str(exc).split(": ", 1)[-1]
+        if works:
+            backend = works[0][1]
+            print(f"{arch}: usable on Taichi's {backend} backend, {' and '.join(p for p, _ in works)}")
+        else:
+            print(f"{arch}: not usable ({why})")
+    return 0
+
+
 def _cmd_other(args) -> int:
     if args.command == "ensemble":
         from .ensemble import main as run
@@ -175,7 +211,7 @@ def main(argv: list[str] | None = None) -> int:
     from .scene import SceneError
 
     args = build_parser().parse_args(argv)
-    handlers = {"run": _cmd_run, "check": _cmd_check}
+    handlers = {"run": _cmd_run, "check": _cmd_check, "devices": _cmd_devices}
     try:
         return handlers.get(args.command, _cmd_other)(args)
     except (SceneError, RunError, OutputError, ArchError) as exc:

@@ -309,8 +309,8 @@ def write_manifest(out_dir: Path, runs: list[RunSpec], axes: list[Axis], scene_p
 _PROCESS_LOCK = threading.Lock()  # one Taichi runtime per process: one run at a time
 
 
-def _ensure_taichi(precision: str) -> None:
-    """Taichi for this worker process: CPU, one thread, the scene's precision.
+def _ensure_taichi(precision: str, arch: str = "cpu") -> None:
+    """Taichi for this worker process: ``arch`` (on the CPU one thread), the scene's precision.
 
     ``runtime.init`` does nothing when called again with the same settings, so a worker
     that runs many tasks initialises Taichi once (again only if the precision changes).
@@ -318,10 +318,10 @@ def _ensure_taichi(precision: str) -> None:
     from . import runtime
 
     with contextlib.redirect_stdout(io.StringIO()):  # "[Taichi] Starting on arch=x64" (taichi is imported)
-        runtime.init("cpu", threads=1, precision=precision)
+        runtime.init(arch, threads=1 if arch == "cpu" else None, precision=precision)
 
 
-def run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, action: str) -> dict:
+def run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, action: str, arch: str = "cpu") -> dict:
     """Dask task: one run into ``out`` (``action``: fresh | overwrite | resume).
 
     Returns ``{"ok": True, **summary}``, or ``{"ok": False, "error": line, "traceback": text}``
@@ -329,12 +329,12 @@ def run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, ac
     no traceback and the client prints one line per failure.
     """
     try:
-        return {"ok": True, **_run_one(text, overrides, seed, out, action)}
+        return {"ok": True, **_run_one(text, overrides, seed, out, action, arch)}
     except Exception as exc:
         return {"ok": False, "error": _error_line(exc), "traceback": traceback.format_exc()}
 
 
-def _run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, action: str) -> dict:
+def _run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, action: str, arch: str = "cpu") -> dict:
     with _PROCESS_LOCK:
         # Imported with the real stdout: Taichi decides at import whether to wrap every
         # kernel call in a print-buffer flush (10x slower here) if sys.stdout looks wrapped.
@@ -342,13 +342,13 @@ def _run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, a
         from .simulation import Simulation
 
         sc = scn.loads(text, [*overrides, (SEED_KEY, seed)])
-        _ensure_taichi(sc.precision)
+        _ensure_taichi(sc.precision, arch)
         path = Path(out)
         if action == "overwrite":
             stale = checkpoint_path(path)
             if stale.exists():  # never resume later from another file's checkpoint
                 stale.unlink()
-        sim = Simulation(sc, path, overwrite=action == "overwrite", resume=action == "resume", arch="cpu", progress=False)
+        sim = Simulation(sc, path, overwrite=action == "overwrite", resume=action == "resume", arch=arch, progress=False)
         s = sim.run()
         return {
             "time": s.time,
@@ -416,13 +416,13 @@ def _cluster(scheduler: str | None, workers: int):
             cluster.close()
 
 
-def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec]) -> None:
+def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec], arch: str = "cpu") -> None:
     from distributed import as_completed
 
     tag = uuid.uuid4().hex[:8]
     futures = {}
     for r in todo:
-        args = (text, r.overrides, r.seed, str(out_dir / r.file), r.action)
+        args = (text, r.overrides, r.seed, str(out_dir / r.file), r.action, arch)
         fut = client.submit(run_one, *args, key=f"melange-ti-{r.file}-{tag}", pure=False, retries=0)
         futures[fut] = r
     bar = None
@@ -514,6 +514,11 @@ def main(args) -> int:
     runs = plan(axes, args.seeds)
     resolved = validate(text, runs, args.scene)
     name = scn.loads(text, [*runs[0].overrides, (SEED_KEY, 1)]).name
+    if args.arch != "cpu":  # an unusable device is refused before anything starts
+        from . import runtime
+
+        for precision in sorted({scn.loads(text, [*r.overrides, (SEED_KEY, 1)]).precision for r in runs}):
+            runtime.probe(args.arch, precision)
     if out_dir.exists():
         classify(out_dir, runs, resolved)
     else:
@@ -532,7 +537,7 @@ def main(args) -> int:
         if todo:
             workers = min(args.workers or os.cpu_count() or 1, len(todo))
             with _cluster(args.scheduler, workers) as (client, where):
-                _run_all(client, text, out_dir, todo)
+                _run_all(client, text, out_dir, todo, args.arch)
     except KeyboardInterrupt:
         write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
         print("melange-ti: interrupted; run the same command again to resume the unfinished runs", file=sys.stderr)

@@ -23,7 +23,7 @@ import taichi as ti
 from . import runtime  # noqa: F401  (imported for its patch: Taichi reuses source-position text)
 from .errors import ContactOverflow
 from .geometry import disc_radius
-from .physics import narrow, stages
+from .physics import device, narrow, stages
 from .physics.schema import (
     ACC_LEDGERS,
     ACCUMULATORS,
@@ -92,7 +92,14 @@ def _scene_value(scene: Scene, key: str) -> float:
 class Model:
     """Icebergs as Taichi ndarrays plus the step for one fixed effect set."""
 
-    def __init__(self, scene: Scene, icebergs: Icebergs | None = None, mode: str = "auto", islands: bool | None = None):
+    def __init__(
+        self,
+        scene: Scene,
+        icebergs: Icebergs | None = None,
+        mode: str = "auto",
+        islands: bool | None = None,
+        device_parts: bool | None = None,
+    ):
         bergs = icebergs if icebergs is not None else scene.icebergs()
         self.scene = scene
         self.fx = scene.effects
@@ -108,6 +115,9 @@ class Model:
         # the parallel form solves islands side by side where there are threads to pay for
         # finding them (ISLANDS_MIN_THREADS); both ways give the same bits
         self.islands = (not on_cpu or threads >= ISLANDS_MIN_THREADS) if islands is None else bool(islands)
+        # off the CPU the parts the CPU runs on one thread run in parallel forms
+        # (physics/device.py); forced on the CPU by tests, where they give the same state
+        self.device_parts = (not on_cpu) if device_parts is None else bool(device_parts)
         if mode == "auto":
             mode = "serial" if on_cpu and n <= SERIAL_MAX_N else "parallel"
             # measured at the first advance (serial meanwhile: its allocation, lists included)
@@ -143,6 +153,7 @@ class Model:
             cfg=alloc(CONFIG),
             cnt=alloc(COUNTERS),
             acc=alloc(ACCUMULATORS),
+            red=ti.ndarray(ti.f64, shape=(device.red_rows(n, ncells) if self.device_parts else 1, device.RED_WIDTH)),
         )
         # where :meth:`sample` puts what it fetches (numpy: the kernel writes it in place)
         self._out, self._out_acc, self._out_cnt = self._sample_buffers(1)
@@ -177,6 +188,7 @@ class Model:
         a.par.from_numpy(par.astype(self.np_real))
         a.scr.from_numpy(np.zeros(a.scr.shape, dtype=self.np_real))
         a.acc.from_numpy(np.zeros(ACCUMULATORS.size))
+        a.red.from_numpy(np.zeros(a.red.shape))
         a.cnt.from_numpy(np.zeros(COUNTERS.size, dtype=np.int64))
         cfg = np.zeros(CONFIG.size, dtype=np.int64)
         cfg[Config.N] = n
@@ -352,21 +364,31 @@ class Model:
         parts, repeat = stage.parallel, self.scene.contacts.contact_passes if stage.per_pass else 1
         if not self.islands and stage.without_islands is not None:
             parts, repeat = stage.without_islands, 1  # the sequential pass loops its passes itself
+        elif self.device_parts and stage.device is not None:
+            parts = stage.device
         for _ in range(repeat):
             for part in parts:
                 if part.needs(self.fx):
-                    if self._part_times is None:
-                        stages.run_part(self.fx, part, *self.arrays)
-                        continue
-                    ti.sync()
-                    t1 = time.perf_counter()
-                    stages.run_part(self.fx, part, *self.arrays)
-                    ti.sync()
-                    key = f"{stage.name}.{part.func.__name__}"
-                    self._part_times[key] = self._part_times.get(key, 0.0) + time.perf_counter() - t1
+                    self._launch(stage, part)
         if times is not None:
             ti.sync()
             times[stage.name] += time.perf_counter() - t0
+
+    def _launch(self, stage: stages.Stage, part: stages.Part) -> None:
+        """Run one part (again while it says it changed something, if it ``repeat``s),
+        timed into the part profile while :meth:`profile` asks for it."""
+        t1 = 0.0
+        if self._part_times is not None:
+            ti.sync()
+            t1 = time.perf_counter()
+        for _ in range(self.n if part.repeat else 1):
+            stages.run_part(self.fx, part, *self.arrays)
+            if part.repeat and int(self.arrays.cnt[Counter.CHANGED]) == 0:
+                break
+        if self._part_times is not None:
+            ti.sync()
+            key = f"{stage.name}.{part.func.__name__}"
+            self._part_times[key] = self._part_times.get(key, 0.0) + time.perf_counter() - t1
 
     def _step_parallel(self, times: dict | None) -> None:
         """One step of :data:`stages.STEP`, each stage launched as its parallel parts."""

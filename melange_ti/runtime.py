@@ -61,29 +61,51 @@ def memoize_source_positions() -> bool:
 memoize_source_positions()
 
 
-def _check_gpu() -> None:
-    """Refuse ``--arch gpu`` in one line where no GPU backend works. Taichi's own attempt can
-    kill the process (``libcuda.so`` missing, then a segmentation fault in the Vulkan
-    probe), so a child process tries first."""
+ARCHS = ("cpu", "gpu", "cuda", "vulkan")
+CPU_ARCHS = ("x64", "arm64")
+
+_probed: dict[tuple[str, str], str] = {}
+
+
+def probe(arch: str, precision: str = "f64") -> str:
+    """The backend ``--arch arch`` gets here (``"cuda"``, ``"vulkan"``, ...), found by
+    starting Taichi on it in a child process and running one small kernel in
+    ``precision``; :class:`ArchError` (one line) where there is no usable device, the driver
+    crashes, or the device cannot run ``precision`` (f64 on a device without it)."""
+    if (arch, precision) in _probed:
+        return _probed[(arch, precision)]
     import subprocess
     import sys
 
-    probe = "import taichi as ti; ti.init(arch=ti.gpu, log_level=ti.ERROR); print(ti.lang.impl.current_cfg().arch)"
+    flag = f"--arch {arch}"
     try:
-        p = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300)
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        raise ArchError(f"--arch gpu: could not probe for a GPU ({exc.__class__.__name__}); use --arch cpu") from None
-    arch = p.stdout.strip().splitlines()[-1].split(".")[-1] if p.returncode == 0 and p.stdout.strip() else ""
-    if p.returncode != 0:
-        raise ArchError(
-            f"--arch gpu: no usable GPU on this machine (Taichi's GPU start-up failed, status {p.returncode}); use --arch cpu"
+        p = subprocess.run(
+            [sys.executable, "-m", "melange_ti.probe", arch, precision], capture_output=True, text=True, timeout=600
         )
-    if arch in ("x64", "arm64", ""):
-        raise ArchError("--arch gpu: no GPU backend is available on this machine (Taichi fell back to the CPU); use --arch cpu")
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise ArchError(f"{flag}: could not probe for a device ({exc.__class__.__name__}); use --arch cpu") from None
+    lines = dict(line.split(" ", 1) for line in p.stdout.splitlines() if line.startswith(("BACKEND ", "KERNEL ")))
+    backend = lines.get("BACKEND", "").strip()
+    if p.returncode < 0 or (p.returncode != 0 and not backend):
+        why = f"signal {-p.returncode}" if p.returncode < 0 else f"status {p.returncode}"
+        raise ArchError(f"{flag}: Taichi's start-up on the device failed ({why}: no device, or a broken driver); use --arch cpu")
+    if backend in CPU_ARCHS or not backend:
+        raise ArchError(
+            f"{flag}: no {'GPU' if arch == 'gpu' else arch} device on this machine (Taichi fell back to the CPU); use --arch cpu"
+        )
+    if p.returncode != 0 or lines.get("KERNEL", "").strip() != "ok":
+        last = (p.stderr.strip().splitlines() or ["no message"])[-1][:160]
+        hint = " (try --set scene.precision=f32)" if precision == "f64" else ""
+        raise ArchError(f"{flag}: the {backend} device cannot run a {precision} kernel{hint}: {last}")
+    _probed[(arch, precision)] = backend
+    return backend
 
 
 def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", debug: bool = False) -> str:
-    """Initialise Taichi for ``arch`` ("cpu" or "gpu") and return the backend's name.
+    """Initialise Taichi for ``arch`` (one of :data:`ARCHS`: ``"cpu"``; ``"gpu"``, Taichi's
+    choice of device, CUDA first, then Vulkan, ...; or ``"cuda"``, ``"vulkan"``) and return
+    the backend's name (``"x64"``, ``"cuda"``, ``"vulkan"``, ...). A device is probed first
+    (:func:`probe`): no usable device is an :class:`ArchError`, never a crash.
 
     ``threads`` caps the CPU backend's threads (default: all hardware threads). Results do
     not depend on it. A second call with the same settings (or ``threads=None`` and the same
@@ -101,15 +123,18 @@ def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", 
     kwargs = dict(default_fp=fp, default_ip=ti.i32, debug=debug, log_level=ti.WARN, fast_math=False)
     if threads is not None:
         kwargs["cpu_max_num_threads"] = int(threads)
-    if arch not in ("cpu", "gpu"):
-        raise ArchError(f"--arch {arch!r}: must be cpu or gpu")
-    if arch == "gpu":
-        _check_gpu()
+    if arch not in ARCHS:
+        raise ArchError(f"--arch {arch!r}: must be one of {', '.join(ARCHS)}")
+    target = ti.cpu if arch == "cpu" else getattr(ti, probe(arch, precision))
     with contextlib.redirect_stdout(io.StringIO()):  # ti.init prints its backend on stdout
-        ti.init(arch=ti.cpu if arch == "cpu" else ti.gpu, **kwargs)
-    if arch == "gpu":
-        if ti.lang.impl.current_cfg().arch in (ti.x64, ti.arm64):
-            raise ArchError("--arch gpu: no GPU backend is available on this machine (Taichi fell back to the CPU)")
+        ti.init(arch=target, **kwargs)
     name = str(ti.lang.impl.current_cfg().arch).split(".")[-1]
+    if arch != "cpu" and name in CPU_ARCHS:
+        raise ArchError(f"--arch {arch}: no device on this machine (Taichi fell back to the CPU); use --arch cpu")
     _current = (key, name)
     return name
+
+
+def backend() -> str | None:
+    """The backend Taichi runs on (``"x64"``, ``"vulkan"``, ...), or None before :func:`init`."""
+    return None if _current is None else _current[1]

@@ -46,6 +46,7 @@ class RunSummary:
     energy_lost: float  # mechanical energy lost, E(0) - E(t), E = E_k + E_p
     dissipated: float  # what the ledgers booked (drag, collisions, corrections)
     energy_residual: float  # energy_lost - dissipated: the integrator's error
+    backend: str = "x64"  # the Taichi backend that ran it ("x64", "arm64", "cuda", "vulkan", ...)
 
     def lines(self) -> list[str]:
         rel = self.energy_residual / self.energy_released if self.energy_released else float("nan")
@@ -56,7 +57,7 @@ class RunSummary:
             f"energy: released (potential, E_p(0) - E_p(t)) {self.energy_released:.6g}; lost (E(0) - E(t)) "
             f"{self.energy_lost:.6g} = dissipated {self.dissipated:.6g} + residual {self.energy_residual:.3g} "
             f"({rel:.2%} of released)",
-            f"output: {self.path}",
+            f"output: {self.path} (ran on Taichi's {self.backend} backend)",
         ]
 
 
@@ -323,7 +324,7 @@ class Simulation:
         dtype = np.float32 if scene.precision == "f32" else np.float64
         from . import runtime
 
-        runtime.init(self.arch, None, scene.precision)  # on demand; keeps an earlier init of the same kind
+        self.backend = runtime.init(self.arch, None, scene.precision)  # on demand; keeps an earlier init of the same kind
         self.model = model = Model(scene, mode=self.mode)
         start_step = 0
         if self.resume:
@@ -336,7 +337,7 @@ class Simulation:
                 "scene_toml": scene.to_toml(),
                 "melange_ti_version": __version__,
                 "taichi_version": ".".join(map(str, ti.__version__)),
-                "arch": self.arch,
+                "arch": self.backend,
                 "precision": scene.precision,
                 "seed": scene.time.seed,
             }
@@ -462,4 +463,5 @@ class Simulation:
             energy_lost=lost,
             dissipated=dissipated,
             energy_residual=lost - dissipated,
+            backend=self.backend,
         )

@@ -174,12 +174,6 @@ def test_xarray_follows_a_running_file_and_reads_it_after_kill9(small_run, tmp_p
 
 
 # ---------------------------------------------------------------- the sharp edges
-def test_gpu_without_gpu_is_refused_in_one_line(tmp_path):
-    proc = cli(["run", "--arch", "gpu", "--set", "shelf.count=3", "--out", "g.h5"], tmp_path)
-    assert "--arch gpu" in one_error(proc)
-    assert not (tmp_path / "g.h5").exists()
-
-
 def test_bench_never_overwrites_results(tmp_path):
     (tmp_path / "effects.csv").write_text("mine\n")
     proc = cli(["bench", "effects", "--quick", "--out", str(tmp_path)], tmp_path)

@@ -14,7 +14,8 @@ from .columns import Body, BodyInt, Cell, Config, Param, Scratch
 # The parallel form's maximum speed: each chunk of bodies takes its own, then one atomic per
 # chunk (a maximum is exact in any order: the same bits as one atomic per body, which made
 # two threads take turns at one cache line 100,000 times a step; docs/performance.md)
-CHUNK = 256
+CHUNK_BITS = 8
+CHUNK = 1 << CHUNK_BITS
 
 
 @ti.func
@@ -114,7 +115,7 @@ def motion_all(fx: ti.template(), a: ti.template()):
     """Every body's motion, the fastest speed and the largest reach."""
     a.scr[Scratch.SPEED_MAX] = 0.0
     n = a.b.shape[0]
-    for c in range((n + CHUNK - 1) // CHUNK):
+    for c in range((n + CHUNK - 1) >> CHUNK_BITS):  # a shift: SPIR-V has no // of a shape
         vmax = 0.0
         for i in range(c * CHUNK, ti.min(n, (c + 1) * CHUNK)):
             vmax = ti.max(vmax, motion(a, i))

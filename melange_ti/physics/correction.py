@@ -13,7 +13,7 @@ import taichi as ti
 
 from .effects import wall
 from .forces import contact_mass, potential_energy
-from .impulses import normal_speed
+from .impulses import contact, contact_range, normal_speed
 from .schema import Acc, Body, BodyInt, Contact, Param
 
 MAX_CORRECT = 4  # correction sweeps while some overlap is still being pushed apart
@@ -107,20 +107,19 @@ def prepare_body(fx: ti.template(), a: ti.template(), i, eager: ti.template()):
 
 @ti.func
 def sweep_body(fx: ti.template(), a: ti.template(), sweep, i, eager: ti.template()):
-    """One sweep's pushes of body i's contacts (wall, then partners j > i ascending); after
-    the first sweep only contacts of a body moved in the previous one. Returns how many
-    pushed."""
-    cd = ti.static(a.cd)
+    """One sweep's pushes of body i's contacts (wall, then partners j > i ascending:
+    :func:`.impulses.contact_range`); after the first sweep only contacts of a body moved
+    in the previous one. Returns how many pushed."""
     since = sweep - 1
     pushed = 0
-    if ti.static(fx.wall):
-        if a.bi[i, BodyInt.WALL_ON] and a.bi[i, BodyInt.PUSHED] >= since:
-            pushed += push(fx, a, sweep, i, -1, 1.0, 0.0, 0.0, eager)
-    if ti.static(fx.collisions):
-        for s in range(a.bi[i, BodyInt.NCONTACT]):
-            j = a.cp[s, i]
-            if ti.max(a.bi[i, BodyInt.PUSHED], a.bi[j, BodyInt.PUSHED]) >= since:
-                pushed += push(fx, a, sweep, i, j, cd[s, i, Contact.NX], cd[s, i, Contact.NZ], cd[s, i, Contact.GAP], eager)
+    first, last = contact_range(fx, a, i)
+    for s in range(first, last):
+        j, _slot, _px, _pz, nx, nz, g_end = contact(fx, a, i, s)
+        moved = a.bi[i, BodyInt.PUSHED]
+        if j >= 0:
+            moved = ti.max(moved, a.bi[j, BodyInt.PUSHED])
+        if moved >= since:
+            pushed += push(fx, a, sweep, i, j, nx, nz, g_end, eager)
     return pushed
 
 

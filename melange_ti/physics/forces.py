@@ -11,6 +11,7 @@ step evaluates trigonometric functions.
 
 import taichi as ti
 
+from . import fmath
 from .effects import ADDED, DAMPERS, FORCES, POST_DRIFT, POTENTIALS
 from .schema import Body, Param
 
@@ -80,9 +81,15 @@ def kick(fx: ti.template(), a: ti.template(), i):
 
 @ti.func
 def orient(a: ti.template(), i):
-    """Cache cos and sin of body i's tilt: the one place a step evaluates them."""
-    a.b[i, Body.COS] = ti.cos(a.b[i, Body.TH])
-    a.b[i, Body.SIN] = ti.sin(a.b[i, Body.TH])
+    """Cache cos and sin of body i's tilt: the one place a step evaluates them (in f64 on a
+    SPIR-V device, which has no f64 ``sin``/``cos``, from :mod:`.fmath`)."""
+    if ti.static(fmath.needs_own_trig()):
+        sn, cs = fmath.sin_cos_f64(a.b[i, Body.TH])
+        a.b[i, Body.COS] = cs
+        a.b[i, Body.SIN] = sn
+    else:
+        a.b[i, Body.COS] = ti.cos(a.b[i, Body.TH])
+        a.b[i, Body.SIN] = ti.sin(a.b[i, Body.TH])
 
 
 @ti.func

@@ -96,34 +96,59 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
             a.acc[Acc.COLLISION] += dissipated
             a.acc[Acc.OFFSET] += 0.5 * jn * kick_vn
             a.acc[Acc.IMPULSE] += jn
-        a.cnt[Counter.CONTACTS] += 1
+            a.cnt[Counter.CONTACTS] += 1  # deferred: counted by book (no atomics in the islands' loop)
+
+
+@ti.func
+def contact_range(fx: ti.template(), a: ti.template(), i):
+    """Body i's contacts as a range of slots in the pass's order: ``-1`` its wall contact
+    (if it has one), then its partners j > i ascending (:func:`contact`)."""
+    first = 0
+    if ti.static(fx.wall):
+        first = -a.bi[i, BodyInt.WALL_ON]
+    last = 0
+    if ti.static(fx.collisions):
+        last = a.bi[i, BodyInt.NCONTACT]
+    return first, last
+
+
+@ti.func
+def contact(fx: ti.template(), a: ti.template(), i, s):
+    """Contact ``s`` of body i (:func:`contact_range`): ``(j, slot, px, pz, nx, nz, gap)``,
+    j = -1 and slot ``Config.SLOTS`` for the wall.
+
+    Passes over a body's contacts walk this one range with one call site of their contact
+    law, not a wall call then a partner loop: with two call sites, Vulkan on lavapipe
+    skipped the partners' impulses in the island-parallel pass (docs/devices.md). The
+    arithmetic is the same either way."""
+    b = ti.static(a.b)
+    cd = ti.static(a.cd)
+    j = -1
+    slot = ti.cast(a.cfg[Config.SLOTS], ti.i32)
+    px, pz, nx, nz, gap = 0.0, 0.0, 1.0, 0.0, 0.0
+    if ti.static(fx.wall):
+        px = a.par[Param.WALL_X]
+        pz = b[i, Body.WALL_PZ]
+        gap = b[i, Body.WALL_GAP]
+    if s >= 0:
+        j = a.cp[s, i]
+        slot = s
+        px = cd[s, i, Contact.PX]
+        pz = cd[s, i, Contact.PZ]
+        nx = cd[s, i, Contact.NX]
+        nz = cd[s, i, Contact.NZ]
+        gap = cd[s, i, Contact.GAP]
+    return j, slot, px, pz, nx, nz, gap
 
 
 @ti.func
 def body_contacts(fx: ti.template(), a: ti.template(), i, defer: ti.template()):
-    """Body i's contacts in the pass's order: its wall contact, then its partners j > i
-    ascending. Deferred terms of the wall contact go to slot ``Config.SLOTS``."""
-    b = ti.static(a.b)
-    if ti.static(fx.wall):
-        if a.bi[i, BodyInt.WALL_ON]:
-            wall_slot = ti.cast(a.cfg[Config.SLOTS], ti.i32)
-            resolve(fx, a, i, -1, a.par[Param.WALL_X], b[i, Body.WALL_PZ], 1.0, 0.0, b[i, Body.WALL_GAP], wall_slot, defer)
-    if ti.static(fx.collisions):
-        for s in range(a.bi[i, BodyInt.NCONTACT]):
-            cd = ti.static(a.cd)
-            resolve(
-                fx,
-                a,
-                i,
-                a.cp[s, i],
-                cd[s, i, Contact.PX],
-                cd[s, i, Contact.PZ],
-                cd[s, i, Contact.NX],
-                cd[s, i, Contact.NZ],
-                cd[s, i, Contact.GAP],
-                s,
-                defer,
-            )
+    """Body i's contacts in the pass's order (:func:`contact_range`); deferred terms of the
+    wall contact go to slot ``Config.SLOTS``."""
+    first, last = contact_range(fx, a, i)
+    for s in range(first, last):
+        j, slot, px, pz, nx, nz, gap = contact(fx, a, i, s)
+        resolve(fx, a, i, j, px, pz, nx, nz, gap, slot, defer)
 
 
 @ti.func
@@ -144,6 +169,7 @@ def book_one(a: ti.template(), s, i, wall: ti.template()):
         a.acc[Acc.COLLISION] += cd[s, i, Contact.DEF_COLLISION]
         a.acc[Acc.OFFSET] += cd[s, i, Contact.DEF_OFFSET]
         a.acc[Acc.IMPULSE] += jn
+        a.cnt[Counter.CONTACTS] += 1
         cd[s, i, Contact.DEF_IMPULSE] = 0.0
 
 
@@ -181,25 +207,11 @@ def deep_approach(a: ti.template(), i, j, px, pz, nx, nz, gap):
 @ti.func
 def deep_contacts(fx: ti.template(), a: ti.template(), i):
     """How many of body i's contacts (wall, partners j > i) still approach deeply."""
-    b = ti.static(a.b)
-    cd = ti.static(a.cd)
     count = 0
-    if ti.static(fx.wall):
-        if a.bi[i, BodyInt.WALL_ON]:
-            count += deep_approach(a, i, -1, a.par[Param.WALL_X], b[i, Body.WALL_PZ], 1.0, 0.0, b[i, Body.WALL_GAP])
-    if ti.static(fx.collisions):
-        for s in range(a.bi[i, BodyInt.NCONTACT]):
-            j = a.cp[s, i]
-            count += deep_approach(
-                a,
-                i,
-                j,
-                cd[s, i, Contact.PX],
-                cd[s, i, Contact.PZ],
-                cd[s, i, Contact.NX],
-                cd[s, i, Contact.NZ],
-                cd[s, i, Contact.GAP],
-            )
+    first, last = contact_range(fx, a, i)
+    for s in range(first, last):
+        j, _slot, px, pz, nx, nz, gap = contact(fx, a, i, s)
+        count += deep_approach(a, i, j, px, pz, nx, nz, gap)
     return count
 
 

@@ -121,6 +121,7 @@ BODY_INTS = Table(
         Column("ISLAND_NUM", "scratch", "1", "islands: at a root, its island's number (islands by root ascending)"),
         Column("ISLAND_START", "scratch", "1", "islands: indexed by island number, where its bodies start in ISLAND_ORDER"),
         Column("ISLAND_ORDER", "scratch", "1", "islands: bodies grouped by island, ascending within (indexed by position)"),
+        Column("ISLAND_END", "scratch", "1", "device islands: one past the island's highest body (indexed by island number)"),
     ),
     BodyInt,
 )
@@ -219,6 +220,7 @@ COUNTERS = Table(
         Column("OVERFLOW", "counter", "1", "1 if a body had more partners than slots"),
         Column("AGAIN", "counter", "1", "after an impulse pass: 2 detect again, 1 pass again, 0 done"),
         Column("ISLANDS", "counter", "1", "islands of the last detection (parallel form)"),
+        Column("CHANGED", "counter", "1", "device islands: 1 if the last labelling round changed a label"),
     ),
     Counter,
 )
@@ -282,6 +284,7 @@ class Arrays(NamedTuple):
     cfg: object
     cnt: object
     acc: object
+    red: object  # (blocks, device.RED_WIDTH), f64: partial sums of the device's parallel parts (physics/device.py)
 
 
 def _build():

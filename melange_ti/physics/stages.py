@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import taichi as ti
 
-from . import broad, correction, forces, impulses, islands, narrow
+from . import broad, correction, device, forces, impulses, islands, narrow
 from .schema import BODIES, Arrays, Counter, allocated
 
 MAX_DETECT = 16  # rounds of (detection,) impulse pass and check per step
@@ -55,11 +55,13 @@ def collisions(fx) -> bool:
 @dataclass(frozen=True)
 class Part:
     """One kernel of the parallel form: ``func(fx, a)``; ``sequential`` parts run on one
-    thread (their order is the physics); ``needs(fx)``: launched only when true."""
+    thread (their order is the physics); ``needs(fx)``: launched only when true; ``repeat``:
+    launched again while it sets ``Counter.CHANGED``."""
 
     func: Callable
     sequential: bool = False
     needs: Callable = always
+    repeat: bool = False
 
 
 @dataclass(frozen=True)
@@ -68,7 +70,9 @@ class Stage:
     fused kernel); ``parallel`` its parts as kernels, in turn, ``contact_passes`` times if
     ``per_pass``; ``needs(fx)``: run only when true. Without islands
     (``Model(islands=False)``) the parallel form runs ``without_islands`` instead (once), and
-    skips an ``islands_only`` stage."""
+    skips an ``islands_only`` stage. On a device (``Model(device_parts=True)``) it runs
+    ``device`` instead of ``parallel``, where given: no part on one thread but a walk over
+    block sums (:mod:`.device`)."""
 
     name: str
     serial: Callable
@@ -78,6 +82,7 @@ class Stage:
     per_pass: bool = False
     without_islands: tuple[Part, ...] | None = None
     islands_only: bool = False
+    device: tuple[Part, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -115,6 +120,14 @@ BROAD = Stage(
         Part(broad.bin_scan, sequential=True, needs=collisions),
         Part(broad.bin_fill, needs=collisions),
     ),
+    device=(
+        Part(broad.motion_all),
+        Part(broad.bin_count, needs=collisions),
+        Part(device.cell_sums, needs=collisions),
+        Part(device.cell_scan_blocks, sequential=True, needs=collisions),
+        Part(device.cell_starts, needs=collisions),
+        Part(broad.bin_fill, needs=collisions),
+    ),
 )
 NARROW = Stage("narrow", narrow.narrow_stage, (Part(narrow.narrow_stage),))
 
@@ -125,13 +138,27 @@ def nothing(fx: ti.template(), a: ti.template()):
 
 
 # the serial form solves everything in one sequential pass and needs no islands
-ISLANDS = Stage("islands", nothing, (Part(islands.label, sequential=True),), islands_only=True)
+ISLANDS = Stage(
+    "islands",
+    nothing,
+    (Part(islands.label, sequential=True),),
+    islands_only=True,
+    device=(
+        Part(device.label_start),
+        Part(device.label_round, repeat=True),
+        Part(device.root_sums),
+        Part(device.root_scan_blocks, sequential=True),
+        Part(device.number_roots),
+        Part(device.island_ends),
+    ),
+)
 IMPULSES = Stage(
     "impulses",
     impulses.impulse_pass,
     (Part(islands.impulse_islands), Part(impulses.book, sequential=True)),
     per_pass=True,
     without_islands=(Part(impulses.impulse_pass, sequential=True),),
+    device=(Part(device.impulse_spans), Part(device.impulse_sums), Part(device.impulse_total, sequential=True)),
 )
 CHECK = Stage("check", impulses.check, (Part(impulses.check),))
 DRIFT = Stage("drift", drift_stage, (Part(drift_stage),))
@@ -153,6 +180,13 @@ CORRECTION = Stage(
         Part(correction.sweeps_eager, sequential=True),
         Part(correction.energy_all),
         Part(correction.book, sequential=True),
+    ),
+    device=(
+        Part(correction.prepare_all),
+        Part(device.correct_spans),
+        Part(correction.energy_all),
+        Part(device.correction_sums),
+        Part(device.correction_total, sequential=True),
     ),
 )
 
@@ -203,9 +237,10 @@ def steps_serial(
     cfg: arr,
     cnt: arr,
     acc: arr,
+    red: arr,
 ):
     """``steps`` whole steps in one call, every loop serial (small N: no launch costs)."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red))
     ti.loop_config(serialize=True)
     for _ in range(1):
         for i in range(b.shape[0]):
@@ -231,9 +266,10 @@ def run_part(
     cfg: arr,
     cnt: arr,
     acc: arr,
+    red: arr,
 ):
     """One part of a stage; its outer loop over bodies is parallel unless it is sequential."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red))
     if ti.static(part.sequential):
         ti.loop_config(serialize=True)
         for _ in range(1):
@@ -245,7 +281,7 @@ def run_part(
 # ---------------------------------------------------------------- host-side helpers
 @ti.kernel
 def orient_all(b: arr):
-    a = ti.static(Arrays(b, None, None, None, None, None, None, None, None, None, None, None))
+    a = ti.static(Arrays(b, None, None, None, None, None, None, None, None, None, None, None, None))
     for i in range(b.shape[0]):
         forces.orient(a, i)
 
@@ -262,6 +298,10 @@ def _sampled(fx) -> tuple:
     return tuple((n, k) for n, k in enumerate(SAMPLED_COLUMNS) if allocated(BODIES.columns[k], fx))
 
 
+def _sampled_positions(fx) -> tuple:
+    return tuple(n for n, _ in _sampled(fx))
+
+
 SAMPLE_NAMES = (*(name for name, _ in _SAMPLED), "kinetic", "potential")
 
 
@@ -276,8 +316,14 @@ def sample_into(fx: ti.template(), a: ti.template(), out: ti.template(), out_acc
         out_cnt[k, c] = a.cnt[c]
     for i in range(b.shape[0]):
         forces.orient(a, i)
-        for q, col in ti.static(_sampled(fx)):
-            out[k, i, q] = b[i, col]
+        # every element written, the columns of effects not named as 0: on a device an
+        # output the kernel only writes is not copied there first, so an element left
+        # alone would come back as whatever the device memory held
+        for q in ti.static(range(len(SAMPLED_COLUMNS))):
+            if ti.static(q in _sampled_positions(fx)):
+                out[k, i, q] = b[i, SAMPLED_COLUMNS[q]]
+            else:
+                out[k, i, q] = 0.0
         out[k, i, ti.static(len(SAMPLED_COLUMNS))] = forces.kinetic_energy(fx, a, i)
         out[k, i, ti.static(len(SAMPLED_COLUMNS) + 1)] = forces.potential_energy(fx, a, i)
 
@@ -286,7 +332,7 @@ def sample_into(fx: ti.template(), a: ti.template(), out: ti.template(), out_acc
 def sample_all(fx: ti.template(), b: arr, par: arr, acc: arr, cnt: arr, out: arr, out_acc: arr, out_cnt: arr):
     """Sample 0 of ``out`` (:func:`sample_into`): one launch, and no transfer where the
     outputs are the host's own numpy arrays (on the CPU Taichi writes them in place)."""
-    a = ti.static(Arrays(b, None, None, None, None, None, None, par, None, None, cnt, acc))
+    a = ti.static(Arrays(b, None, None, None, None, None, None, par, None, None, cnt, acc, None))
     sample_into(fx, a, out, out_acc, out_cnt, 0)
 
 
@@ -306,6 +352,7 @@ def steps_serial_sampled(
     cfg: arr,
     cnt: arr,
     acc: arr,
+    red: arr,
     out: arr,
     out_acc: arr,
     out_cnt: arr,
@@ -314,7 +361,7 @@ def steps_serial_sampled(
     ``segments[1]`` steps, sample 1, ...: a run's output events between two writes in one
     launch. The same bits as one call per segment (the tilts' cos and sin are the ones
     :func:`forces.orient` would give)."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red))
     ti.loop_config(serialize=True)
     for _ in range(1):
         for i in range(b.shape[0]):

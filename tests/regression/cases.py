@@ -92,22 +92,56 @@ def dataset_hashes(path: str | Path) -> dict[str, str]:
     return out
 
 
-def run_cases(names: list[str], outdir: Path, precision: str) -> None:
-    """Run ``names`` (all of one precision) in this process into ``outdir/NAME.h5``."""
+def shortened(doc: dict, steps: int | None) -> dict:
+    """``doc`` ending after at most ``steps`` steps (outputs at least every 50 steps)."""
+    if steps is None:
+        return doc
+    doc = {**doc, "time": dict(doc["time"]), "output": dict(doc["output"])}
+    dt = doc["time"].get("dt", 0.01)
+    doc["time"]["duration"] = min(doc["time"]["duration"], steps * dt)
+    for key in ("snapshot_interval", "diagnostic_interval"):
+        doc["output"][key] = min(doc["output"][key], 50 * dt)
+    return doc
+
+
+def perturbed(doc: dict) -> dict:
+    """``doc`` with its initial positions moved by one ulp (every iceberg's ``x``; a shelf's
+    tilt amplitude): a measure of how sensitive a case is to rounding."""
+    doc = dict(doc)
+    if "iceberg" in doc:
+        doc["iceberg"] = [{**b, "x": float(np.nextafter(b["x"], np.inf))} for b in doc["iceberg"]]
+    else:
+        doc["shelf"] = {**doc["shelf"], "tilt": float(np.nextafter(doc["shelf"]["tilt"], np.inf))}
+    return doc
+
+
+def run_cases(
+    names: list[str], outdir: Path, precision: str, arch: str = "cpu", steps: int | None = None, perturb: bool = False
+) -> None:
+    """Run ``names`` (all of one precision) in this process into ``outdir/NAME.h5`` on
+    ``arch``, each cut to at most ``steps`` steps if given and :func:`perturbed` if asked."""
     from melange_ti import runtime
     from melange_ti.scene import dumps_toml, loads
     from melange_ti.simulation import Simulation
 
-    runtime.init("cpu", precision=precision)
+    runtime.init(arch, precision=precision)
     for name in names:
         doc, mode, _slow = CASES[name]
-        sc = loads(dumps_toml(doc))
-        Simulation(sc, outdir / f"{name}.h5", overwrite=True, progress=False, mode=mode).run()
+        sc = loads(dumps_toml(shortened(perturbed(doc) if perturb else doc, steps)))
+        # on a device the model chooses its form (the parallel one); the CPU keeps the case's
+        Simulation(sc, outdir / f"{name}.h5", overwrite=True, progress=False, mode=mode, arch=arch).run()
 
 
-def run_in_subprocesses(names: list[str], outdir: Path, threads: int | None = None) -> None:
+def run_in_subprocesses(
+    names: list[str],
+    outdir: Path,
+    threads: int | None = None,
+    arch: str = "cpu",
+    steps: int | None = None,
+    perturb: bool = False,
+) -> None:
     """Run the cases in fresh processes, one per precision (Taichi is initialised once per
-    process)."""
+    process), on ``arch``, cut to ``steps`` steps if given, :func:`perturbed` if asked."""
     by_precision: dict[str, list[str]] = {}
     for name in names:
         by_precision.setdefault(CASES[name][0]["scene"].get("precision", "f64"), []).append(name)
@@ -119,7 +153,13 @@ def run_in_subprocesses(names: list[str], outdir: Path, threads: int | None = No
 
             env = {**os.environ, "TI_CPU_MAX_NUM_THREADS": str(threads)}
         subprocess.run(
-            [sys.executable, "-m", "tests.regression.cases", "--run", str(outdir), "--precision", precision, *group],
+            [
+                sys.executable,
+                *("-m", "tests.regression.cases", "--run", str(outdir), "--precision", precision, "--arch", arch),
+                *(("--steps", str(steps)) if steps is not None else ()),
+                *(("--perturb",) if perturb else ()),
+                *group,
+            ],
             check=True,
             cwd=root,
             env=env,
@@ -132,10 +172,13 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--slow", action="store_true", help="with --record: include the slow cases")
     p.add_argument("--run", metavar="DIR", help="(internal) run the named cases into DIR")
     p.add_argument("--precision", default="f64")
+    p.add_argument("--arch", default="cpu")
+    p.add_argument("--steps", type=int, default=None, help="(internal) cut each case to this many steps")
+    p.add_argument("--perturb", action="store_true", help="(internal) move one initial value by one ulp")
     p.add_argument("names", nargs="*")
     a = p.parse_args(argv)
     if a.run:
-        run_cases(a.names, Path(a.run), a.precision)
+        run_cases(a.names, Path(a.run), a.precision, a.arch, a.steps, a.perturb)
         return
     if a.record:
         names = a.names or [n for n, c in CASES.items() if a.slow or not c[2]]

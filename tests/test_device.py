@@ -1,0 +1,294 @@
+"""The GPU path: Taichi's SPIR-V backend on a Vulkan device, against the CPU (docs/devices.md).
+
+Tests marked ``gpu`` run on a Vulkan device when there is one (CI installs Mesa's software
+driver, lavapipe) and are skipped, with the reason, where there is none. The others always
+run: the f64 ``sin``/``cos`` the device uses, computed on the CPU against numpy, and the
+one-line refusals, each with its no-device case made deliberately (a Vulkan loader pointed
+at a missing driver, CUDA hidden).
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+import taichi as ti
+
+from melange_ti import runtime
+from melange_ti.errors import ArchError
+from melange_ti.physics import fmath
+
+from .regression.cases import CASES, run_in_subprocesses
+
+ROOT = Path(__file__).resolve().parents[1]
+TOLERANCE = {"f64": 1e-12, "f32": 1e-5}  # largest |device - cpu| / max(max |cpu|, SCALE_FLOOR) per dataset
+SCALE_FLOOR = 1e-3  # a dataset that stays near 0 (a vz at rest) is compared to this scale
+NO_DEVICE = {"VK_ICD_FILENAMES": "/nonexistent/melange_ti_icd.json", "CUDA_VISIBLE_DEVICES": ""}
+
+
+def _vulkan_reason() -> str | None:
+    try:
+        runtime.probe("vulkan", "f64")
+    except ArchError as exc:
+        return str(exc)
+    return None
+
+
+_REASON = _vulkan_reason()
+needs_vulkan = pytest.mark.skipif(_REASON is not None, reason=f"no Vulkan device: {_REASON}")
+
+
+def _args(n: int) -> np.ndarray:
+    """Tilts the model meets (a few turns either way), small and tiny values, and values
+    next to multiples of pi/2, where the reduction cancels."""
+    rng = np.random.default_rng(7)
+    near = np.array([k * np.pi / 2 for k in range(-40, 41)])
+    near = np.concatenate([near, np.nextafter(near, np.inf), np.nextafter(near, -np.inf)])
+    x = np.concatenate(
+        [
+            rng.uniform(-30, 30, n),
+            rng.uniform(-1e-3, 1e-3, 200),
+            [0.0, 1e-300, -1e-20, 0.5, np.pi / 4],
+            near,
+            1e5 * rng.random(50),
+        ]
+    )
+    return x[(x == 0) | (np.abs(x) >= np.finfo(float).tiny)]  # no subnormals: devices may flush them
+
+
+def _ulps(got: np.ndarray, want: np.ndarray) -> np.ndarray:
+    return np.abs(got - want) / np.spacing(np.maximum(np.abs(want), 1e-290))  # normal spacings: Taichi flushes subnormals
+
+
+@ti.kernel
+def _sin_cos(x: ti.types.ndarray(), s: ti.types.ndarray(), c: ti.types.ndarray()):
+    for i in range(x.shape[0]):
+        s[i], c[i] = fmath.sin_cos_f64(x[i])
+
+
+def test_device_sin_cos_within_one_ulp_of_numpy_on_the_cpu():
+    """The device's f64 sin/cos, compiled here for the CPU (Taichi's own are used on it)."""
+    x = _args(20000)
+    s, c = np.zeros_like(x), np.zeros_like(x)
+    _sin_cos(x, s, c)
+    assert _ulps(s, np.sin(x)).max() <= 1.0
+    assert _ulps(c, np.cos(x)).max() <= 1.0
+
+
+@pytest.mark.parametrize("arch", ["vulkan", "cuda", "gpu"])
+def test_no_device_is_refused_in_one_line(tmp_path, arch):
+    out = tmp_path / "run.h5"
+    cmd = [sys.executable, "-m", "melange_ti", "run", "--arch", arch, "--set", "shelf.count=4", "--out", str(out)]
+    p = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, **NO_DEVICE}, cwd=tmp_path, timeout=600)
+    assert p.returncode == 2, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"melange-ti: error: --arch {arch}: "), p.stderr
+    assert "use --arch cpu" in lines[0]
+    assert not out.exists()
+
+
+def test_devices_says_what_works_here():
+    """``melange-ti devices`` on a machine made to have no device, and here as it is."""
+    cmd = [sys.executable, "-m", "melange_ti", "devices"]
+    p = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, **NO_DEVICE}, timeout=600)
+    assert p.returncode == 0, p.stderr
+    lines = dict(line.split(": ", 1) for line in p.stdout.strip().splitlines())
+    assert lines["cpu"].startswith("usable")
+    for arch in ("cuda", "vulkan", "gpu"):
+        assert lines[arch].startswith("not usable ("), lines[arch]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    here = dict(line.split(": ", 1) for line in p.stdout.strip().splitlines())
+    assert here["vulkan"].startswith("not usable" if _REASON else "usable on Taichi's vulkan backend, f64 and f32")
+
+
+def test_unknown_arch_is_refused():
+    with pytest.raises(ArchError, match="must be one of cpu, gpu, cuda, vulkan"):
+        runtime.init("metal-ish")
+
+
+# --------------------------------------------------------------------- on a device
+# Smooth cases are compared within TOLERANCE. The hard cases (a row driven into the wall,
+# a projectile into a packed row) amplify rounding: on the CPU itself one ulp in the
+# initial positions grows past 1e-12 within 5-12 steps and to O(1) in the tilts by 300, so
+# there the device must stay nearer the CPU than that: the model's own sensitivity.
+SMOOTH = {"paper_f64_d12": 100, "paper_f32_d28": 100}
+HARD = ("row_into_wall", "projectile")
+HARD_STEPS = (30, 200)
+
+
+def _datasets(path: Path) -> dict[str, np.ndarray]:
+    out = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
+    return out
+
+
+def _differences(cpu: Path, device: Path) -> dict[str, float]:
+    """Largest relative difference of every dataset (the CPU's largest magnitude as scale,
+    at least SCALE_FLOOR)."""
+    a, b = _datasets(cpu), _datasets(device)
+    assert set(a) == set(b)
+    worst = {}
+    for name, x in a.items():
+        y = b[name]
+        assert x.shape == y.shape, name
+        x, y = x.astype(np.float64), y.astype(np.float64)
+        scale = max(float(np.max(np.abs(x))), SCALE_FLOOR) if x.size else 1.0
+        worst[name] = float(np.max(np.abs(x - y))) / scale if x.size else 0.0
+    return worst
+
+
+def _compare(cpu: Path, device: Path, tol: float) -> dict[str, float]:
+    worst = _differences(cpu, device)
+    bad = {k: v for k, v in worst.items() if v > tol}
+    assert not bad, f"datasets off by more than {tol:g} relative: {bad}"
+    return worst
+
+
+@pytest.fixture(scope="module")
+def device_runs(tmp_path_factory):
+    """{(form, steps): folder}: the cases on the CPU, on Vulkan, and (hard cases) perturbed
+    on the CPU."""
+    runs = {}
+    groups = [(100, list(SMOOTH), ("cpu", "vulkan"))] + [
+        (steps, list(HARD), ("cpu", "vulkan", "perturbed")) for steps in HARD_STEPS
+    ]
+    for steps, names, forms in groups:
+        for form in forms:
+            kw = {"arch": "vulkan"} if form == "vulkan" else {"perturb": True} if form == "perturbed" else {}
+            out = runs[(form, steps)] = tmp_path_factory.mktemp(f"{form}{steps}")
+            run_in_subprocesses(names, out, steps=steps, **kw)
+    return runs
+
+
+@pytest.mark.gpu
+@needs_vulkan
+@pytest.mark.parametrize("name", list(SMOOTH))
+def test_regression_case_on_vulkan_matches_the_cpu(device_runs, name):
+    precision = CASES[name][0]["scene"].get("precision", "f64")
+    cpu, dev = device_runs[("cpu", SMOOTH[name])] / f"{name}.h5", device_runs[("vulkan", SMOOTH[name])] / f"{name}.h5"
+    _compare(cpu, dev, TOLERANCE[precision])
+    with h5py.File(dev, "r") as f:
+        assert f.attrs["arch"] == "vulkan"
+
+
+@pytest.mark.gpu
+@needs_vulkan
+@pytest.mark.parametrize("steps", HARD_STEPS)
+@pytest.mark.parametrize("name", HARD)
+def test_hard_case_on_vulkan_within_the_models_own_rounding_sensitivity(device_runs, name, steps):
+    """The device stays nearer the CPU than the CPU stays to itself when its initial
+    positions move by one ulp (the largest difference over the state variables); the
+    contact path runs."""
+    cpu = device_runs[("cpu", steps)] / f"{name}.h5"
+    device = _differences(cpu, device_runs[("vulkan", steps)] / f"{name}.h5")
+    own = _differences(cpu, device_runs[("perturbed", steps)] / f"{name}.h5")
+    state = ("snapshots/x", "snapshots/z", "snapshots/theta", "snapshots/vx", "snapshots/vz", "snapshots/omega")
+    worst_device, worst_own = max(device[k] for k in state), max(own[k] for k in state)
+    assert worst_own > 1e-9, f"{name}: the case should be sensitive to rounding ({worst_own:.3g})"
+    assert worst_device <= worst_own, f"{name}: device {worst_device:.3g} vs one ulp {worst_own:.3g}"
+    with h5py.File(device_runs[("vulkan", steps)] / f"{name}.h5", "r") as f:
+        assert f.attrs["arch"] == "vulkan"
+        assert int(np.sum(f["diagnostics/contacts"][()])) > 0, "the case must exercise the contact path"
+
+
+@pytest.mark.gpu
+@needs_vulkan
+def test_every_effect_on_vulkan_matches_the_cpu(tmp_path):
+    """form_drag and added_mass (and the rest) in one scene, f64, against the CPU."""
+    text = (
+        '[scene]\neffects = ["gravity", "buoyancy", "drag", "form_drag", "added_mass", "collisions", "wall"]\n'
+        "[shelf]\ncount = 12\ngap = 0.35\ntilt = 0.3\n[time]\ndt = 0.02\nduration = 4.0\n"
+        "[output]\nsnapshot_interval = 1.0\ndiagnostic_interval = 0.2\n"
+    )
+    scene = tmp_path / "all.toml"
+    scene.write_text(text)
+    for arch in ("cpu", "vulkan"):
+        cmd = [sys.executable, "-m", "melange_ti", "run", str(scene), "--arch", arch, "--out", str(tmp_path / f"{arch}.h5")]
+        subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=ROOT, timeout=900)
+    _compare(tmp_path / "cpu.h5", tmp_path / "vulkan.h5", TOLERANCE["f64"])
+
+
+@pytest.mark.gpu
+@needs_vulkan
+def test_cli_on_vulkan_run_kill_resume_plot(tmp_path):
+    """The command line on ``--arch vulkan``: a run killed (SIGKILL) once its checkpoint
+    exists, resumed to the end, equal to an uninterrupted device run, then plotted."""
+    base = [sys.executable, "-m", "melange_ti", "run", "--arch", "vulkan", "--set", "shelf.count=12"]
+    base += ["--set", "time.dt=0.02", "--set", "time.duration=4", "--set", "output.snapshot_interval=0.5"]
+    base += ["--set", "output.checkpoint_interval=1.0"]
+    whole, killed = tmp_path / "whole.h5", tmp_path / "killed.h5"
+    subprocess.run([*base, "--out", str(whole)], check=True, capture_output=True, cwd=ROOT, timeout=900)
+    with h5py.File(whole, "r") as f:
+        assert f.attrs["arch"] == "vulkan"
+    proc = subprocess.Popen([*base, "--out", str(killed)], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    ckpt = Path(str(killed) + ".ckpt")
+    deadline = time.time() + 600
+    while not ckpt.exists() and proc.poll() is None and time.time() < deadline:
+        time.sleep(0.2)
+    assert proc.poll() is None, "the run ended before it could be killed"
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    resume = [sys.executable, "-m", "melange_ti", "run", "--arch", "vulkan", "--out", str(killed), "--resume"]
+    p = subprocess.run(resume, capture_output=True, text=True, cwd=ROOT, timeout=900)
+    assert p.returncode == 0, p.stderr
+    _compare(whole, killed, TOLERANCE["f64"])
+    figs = tmp_path / "figs"
+    p = subprocess.run(
+        [sys.executable, "-m", "melange_ti", "plot", str(killed), "--out", str(figs)], capture_output=True, text=True
+    )
+    assert p.returncode == 0, p.stderr
+    assert len(list(figs.glob("*.png"))) >= 4
+
+
+@pytest.mark.gpu
+@needs_vulkan
+def test_start_from_a_snapshot_and_an_ensemble_on_vulkan(tmp_path):
+    """``[start]`` from a CPU run's snapshot continues on the device as on the CPU, and an
+    ensemble passes ``--arch`` to its Dask workers."""
+    first = tmp_path / "first.h5"
+    run = [sys.executable, "-m", "melange_ti", "run", "--set", "shelf.count=10", "--set", "shelf.tilt=0.2"]
+    run += ["--set", "shelf.gap=0.25", "--set", "time.dt=0.02", "--set", "time.duration=4"]
+    subprocess.run([*run, "--out", str(first)], check=True, capture_output=True, cwd=ROOT, timeout=900)
+    scene = tmp_path / "start.toml"
+    scene.write_text('[start]\nfile = "first.h5"\ntime = 4.0\n[time]\ndt = 0.02\nduration = 3.0\n')
+    for arch in ("cpu", "vulkan"):
+        cmd = [sys.executable, "-m", "melange_ti", "run", str(scene), "--arch", arch, "--out", str(tmp_path / f"{arch}.h5")]
+        subprocess.run(cmd, check=True, capture_output=True, cwd=ROOT, timeout=900)
+    _compare(tmp_path / "cpu.h5", tmp_path / "vulkan.h5", TOLERANCE["f64"])
+    with h5py.File(first, "r") as a, h5py.File(tmp_path / "vulkan.h5", "r") as b:
+        np.testing.assert_array_equal(a["snapshots/x"][-1], b["snapshots/x"][0])
+
+    ens = tmp_path / "ens"
+    cmd = [sys.executable, "-m", "melange_ti", "ensemble", "--seeds", "2", "--workers", "1", "--arch", "vulkan"]
+    cmd += ["--set", "shelf.count=6", "--set", "time.duration=1", "--set", "time.dt=0.02", "--out", str(ens)]
+    p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=900)
+    assert p.returncode == 0, p.stderr
+    files = sorted(ens.glob("*.h5"))
+    assert len(files) == 2
+    for path in files:
+        with h5py.File(path, "r") as f:
+            assert f.attrs["arch"] == "vulkan"
+
+
+@pytest.mark.gpu
+@needs_vulkan
+def test_parallel_form_with_and_without_islands_on_vulkan(tmp_path):
+    """The device's island-parallel form and its sequential-pass form (one device thread)
+    against the CPU's, on a row whose neighbours collide; and the device's twice, equal bit
+    for bit (nothing on it depends on thread timing)."""
+    got = {}
+    for name, arch in (("cpu", "cpu"), ("vulkan", "vulkan"), ("again", "vulkan")):
+        out = tmp_path / f"{name}.npz"
+        subprocess.run([sys.executable, "-m", "tests.device_forms", arch, str(out)], check=True, cwd=ROOT, timeout=900)
+        got[name] = dict(np.load(out))
+    assert got["cpu"]["1_totals"][3] > 10  # impulses: the contact path ran (every neighbour pair meets)
+    for key, x in got["cpu"].items():
+        y = got["vulkan"][key]
+        assert np.max(np.abs(x - y)) <= TOLERANCE["f64"] * max(np.max(np.abs(x)), SCALE_FLOOR), key
+        assert np.array_equal(y, got["again"][key]), key
