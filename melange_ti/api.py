@@ -93,8 +93,10 @@ def _open_tree(xr, path: Path, complete: bool):
     a Python file object of its own: HDF5 then shares nothing with any earlier open of the
     file in this process (with a path, it serves a new open from a still-open view of the
     same file, which a failed open can leave behind: stale, it never shows a later row).
-    Closing the tree closes that file object too."""
-    kw = dict(engine="h5netcdf", phony_dims="access", driver_kwds={"locking": False})
+    Closing the tree closes that file object too. h5py's default locking, as a user's own
+    ``h5py.File(path)`` or ``xr.open_datatree(path, engine="h5netcdf")`` takes it: HDF5
+    refuses two opens of one file in a process with different locking flags."""
+    kw = dict(engine="h5netcdf", phony_dims="access")
     if complete:
         return xr.open_datatree(path, **kw)
     fh = open(path, "rb")  # noqa: SIM115 (closed with the tree)
@@ -131,7 +133,6 @@ def open_run(path: str | Path):
     for attempt in range(_OPEN_ATTEMPTS):
         lengths, complete = consistent_lengths(path, complete=True)  # also: one-line OutputError for a missing or foreign file
         try:
-            # no HDF5 file lock: the writer takes none either, so a running file can be read
             tree = _open_tree(xr, path, complete)
             break
         except (OSError, KeyError, ValueError) as exc:

@@ -232,7 +232,7 @@ def _read_state(path: Path) -> tuple[str | None, bool] | None:
     import h5py
 
     try:
-        with h5py.File(path, "r", locking=False) as f:
+        with h5py.File(path, "r") as f:  # default locking, as a user's own h5py (io.hdf5)
             toml = f.attrs.get("scene_toml")
             if isinstance(toml, bytes):
                 toml = toml.decode()
@@ -269,7 +269,7 @@ def _last_diagnostics(path: Path) -> dict:
     from .io.hdf5 import consistent_length
 
     try:
-        with h5py.File(path, "r", locking=False) as f:
+        with h5py.File(path, "r") as f:  # default locking, as a user's own h5py (io.hdf5)
             g = f["diagnostics"]
             n = consistent_length(g)
             if n == 0:

@@ -173,6 +173,60 @@ def test_xarray_follows_a_running_file_and_reads_it_after_kill9(small_run, tmp_p
     after.close()
 
 
+def _users_own_readers(path):
+    """A user's own tools next to mt.open_run: plain h5py and xarray on the path, with
+    their default arguments (a running file may be caught mid-write: retried briefly)."""
+    import xarray as xr
+
+    for _ in range(40):
+        try:
+            f = h5py.File(path)
+            try:
+                x = xr.open_datatree(path, engine="h5netcdf")
+            except BaseException:
+                f.close()
+                raise
+            return f, x
+        except OSError as exc:
+            last = exc
+            time.sleep(0.05)
+    raise AssertionError(f"h5py.File / xr.open_datatree next to mt.open_run: {last}")
+
+
+def test_h5py_and_xarray_open_a_finished_file_held_by_open_run(small_run):
+    """HDF5 refuses a second open of a file held in the process with other locking flags
+    ("file locking flag values don't match"): open_run must take h5py's defaults."""
+    path, _ = small_run
+    with mt.open_run(path) as tree:
+        f, x = _users_own_readers(path)
+        with f, x:
+            np.testing.assert_array_equal(f["diagnostics/time"][:], tree["diagnostics"].time.values)
+            np.testing.assert_array_equal(x["snapshots"].x.values, tree["snapshots"].x.values)
+        with h5py.File(path, "r") as f, mt.open_run(path) as again:  # the other order
+            assert again["diagnostics"].sizes["time"] == f["diagnostics/time"].shape[0]
+
+
+def test_h5py_and_xarray_open_a_running_file_held_by_open_run(tmp_path):
+    overrides = ["--set", "shelf.count=100", "--set", "time.duration=200000", "--set", "output.snapshot_interval=200"]
+    p = subprocess.Popen([PY, "-m", "melange_ti", "run", "--out", "run.h5", *overrides], cwd=tmp_path, stderr=subprocess.PIPE)
+    path = tmp_path / "run.h5"
+    try:
+        seen, _ = follow(path, p.pid, budget=300.0)
+        assert p.poll() is None and seen, f"the run ended before the test could read it ({seen})"
+        with mt.open_run(path) as tree:
+            assert not tree.attrs["complete"]
+            f, x = _users_own_readers(path)
+            with f, x:
+                n = tree["snapshots"].sizes["time"]
+                assert f["snapshots/time"].shape[0] >= n and x["snapshots"].sizes["time"] >= n
+                np.testing.assert_array_equal(f["snapshots/x"][:n], tree["snapshots"].x.values)
+                with mt.open_run(path) as again:  # and open_run next to the user's handles
+                    assert again["snapshots"].sizes["time"] >= 1
+    finally:
+        p.kill()
+        p.wait(timeout=60)
+
+
 # ---------------------------------------------------------------- the sharp edges
 def test_gpu_without_gpu_is_refused_in_one_line(tmp_path):
     proc = cli(["run", "--arch", "gpu", "--set", "shelf.count=3", "--out", "g.h5"], tmp_path)

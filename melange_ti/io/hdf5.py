@@ -6,8 +6,11 @@ file cut short by ``kill -9``) can trust the shortest consistent length:
 SWMR: with the HDF5 2.x library a file opened with ``libver="latest"`` for writing keeps a
 status flag in its superblock after a kill, and plain ``h5py.File(path)`` then refuses it.
 The writer opens the file without HDF5's file lock, so a reader can open the running file
-at any time with ``h5py.File(path, "r", locking=False)`` (what :func:`read_run` does) and
-sees every row up to the writer's last flush.
+at any time with plain ``h5py.File(path, "r")`` and sees every row up to the writer's last
+flush. Every reader here opens with h5py's default locking (no ``locking`` argument): HDF5
+refuses a second open of a file that this process holds with other locking flags ("file
+locking flag values don't match"), so a user's own ``h5py.File(path)`` must be able to sit
+next to ours.
 """
 
 from __future__ import annotations
@@ -251,7 +254,7 @@ def consistent_lengths(path: str | Path, complete: bool = False):
     with ``complete``, also whether the run finished (its ``complete`` attribute)."""
     path = Path(path)
     try:
-        with h5py.File(path, "r", locking=False) as f:
+        with h5py.File(path, "r") as f:
             lengths = {group: consistent_length(f[group]) for group in ("snapshots", "diagnostics")}
             return (lengths, bool(f.attrs.get("complete", False))) if complete else lengths
     except FileNotFoundError:
@@ -268,7 +271,7 @@ def read_run(path: str | Path) -> dict:
     """
     path = Path(path)
     try:
-        with h5py.File(path, "r", locking=False) as f:
+        with h5py.File(path, "r") as f:
             out = {"attrs": {k: _plain(v) for k, v in f.attrs.items()}}
             for group in ("icebergs", "snapshots", "diagnostics"):
                 g = f[group]
