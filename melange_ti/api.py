@@ -10,7 +10,9 @@ Errors are the command line's, as exceptions with the same one-line messages:
 :class:`SceneError` (a scene or value that cannot be run), :class:`RunError` (an output that
 exists, a resume that cannot continue), :class:`ArchError` (no usable backend),
 :class:`OutputError` (a file that cannot be written or read), :class:`NumericalError` and
-:class:`ContactOverflow` (a run stopped by a guard; its output up to there is kept).
+:class:`ContactOverflow` (a run stopped by a guard; its output up to there is kept),
+:class:`Interrupted` (Ctrl-C, a ``KeyboardInterrupt``: a checkpoint is written where the run
+stopped; ``resume=True`` continues it).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from .errors import ArchError, ContactOverflow, NumericalError, RunError
+from .errors import ArchError, ContactOverflow, Interrupted, NumericalError, RunError
 from .io.hdf5 import OutputError
 from .scene import Scene, SceneError
 
@@ -65,7 +67,9 @@ def run(
     from .simulation import Simulation
 
     scene = validated(scene)
-    sim = Simulation(scene, out, overwrite=overwrite, resume=resume, arch=arch, progress=progress, history="melange_ti.run()")
+    sim = Simulation(
+        scene, out, overwrite=overwrite, resume=resume, arch=arch, progress=progress, history="melange_ti.run()", interface="api"
+    )
     runtime.init(arch, threads, scene.precision)
     return sim.run()
 
@@ -157,6 +161,7 @@ def open_run(path: str | Path):
 __all__ = [
     "ArchError",
     "ContactOverflow",
+    "Interrupted",
     "NumericalError",
     "OutputError",
     "RunError",

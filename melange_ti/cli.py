@@ -184,6 +184,6 @@ def main(argv: list[str] | None = None) -> int:
     except (NumericalError, ContactOverflow) as exc:
         print(f"melange-ti: error: {exc}", file=sys.stderr)
         return EXIT_RUNTIME
-    except KeyboardInterrupt:
-        print("melange-ti: interrupted; resume with --resume", file=sys.stderr)
+    except KeyboardInterrupt as exc:  # simulation.Interrupted says where and how to continue
+        print(f"melange-ti: {exc or 'interrupted; resume with --resume'}", file=sys.stderr)
         return 130

@@ -19,7 +19,7 @@ import numpy as np
 
 from . import __version__
 from . import diagnostics as diag
-from .errors import NumericalError, RunError
+from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
 from .io.hdf5 import OutputError, RunWriter, read_run
 from .model import Model
@@ -31,6 +31,13 @@ from .scene import Scene
 # at most this many, and this many bytes of samples
 BATCH_MAX = 64
 BATCH_BYTES = 32 << 20
+
+# How a message names the output, overwriting and resuming: the command line's flags, or
+# the arguments of melange_ti.run (Simulation(interface=...))
+SPELLINGS = {
+    "cli": {"out": "--out", "overwrite": "--overwrite", "resume": "--resume"},
+    "api": {"out": "out", "overwrite": "overwrite=True", "resume": "resume=True"},
+}
 
 
 @dataclass(frozen=True)
@@ -72,8 +79,8 @@ class _DeferredInterrupt:
     Python raises ``KeyboardInterrupt`` wherever the main thread happens to be, and where
     that is a garbage-collection or weakref callback it is printed and dropped ("Exception
     ignored in ...") and the run goes on. This handler only records the signal; the run
-    loop raises at its next check (at most one output interval later), where the file and
-    checkpoint are in a consistent state. Installed only in the main thread, and not where
+    loop stops at its next output event (at most one snapshot interval later) and writes a
+    checkpoint there (:meth:`Simulation._interrupted`). Installed only in the main thread, and not where
     SIGINT is ignored (e.g. under ``nohup``).
     """
 
@@ -92,10 +99,6 @@ class _DeferredInterrupt:
 
     def _record(self, signum, frame) -> None:
         self.requested = True
-
-    def check(self) -> None:
-        if self.requested:
-            raise KeyboardInterrupt
 
     def restore(self) -> None:
         if self.installed:
@@ -260,7 +263,9 @@ class Simulation:
     the earliest next event, where one packed transfer (:meth:`Model.sample`) feeds every
     output that is due, in list order. ``resume`` continues an interrupted run from its
     checkpoint so that the final file is bit-identical to an uninterrupted run.
-    ``progress``: a bar on a terminal (``None``: when stderr is one).
+    ``progress``: a bar on a terminal (``None``: when stderr is one). ``interface``
+    (``"cli"`` or ``"api"``): whether messages name the command line's flags or
+    :func:`melange_ti.run`'s arguments.
     """
 
     def __init__(
@@ -274,6 +279,7 @@ class Simulation:
         mode: str = "auto",
         on_event: Callable[[int], None] | None = None,
         history: str | None = None,
+        interface: str = "cli",
     ):
         self.scene = scene
         self.history = history or f"created by melange_ti {__version__} (Python API)"
@@ -285,6 +291,8 @@ class Simulation:
         self.progress = sys.stderr.isatty() if progress is None else progress
         self.mode = mode
         self.on_event = on_event
+        self.say = SPELLINGS[interface]
+        self.interface = interface
         dt = scene.time.dt
         self.total = scene.time.steps
 
@@ -299,21 +307,25 @@ class Simulation:
             Checkpoints(every(scene.output.checkpoint_interval), diagnostics),
         ]
         self.diagnostics = diagnostics
+        self.checkpoints = self.outputs[-1]
         self.totals = None  # the model's Totals, fetched with each event's sample
         self._check_paths()
 
     def _check_paths(self) -> None:
+        out, say = self.out, self.say
         if self.resume:
-            if not self.out.exists():
-                raise RunError(f"--resume: {self.out} does not exist")
+            if not out.exists():
+                raise RunError(f"{say['resume']}: {out} does not exist")
             return
-        if self.out.is_dir():
-            raise RunError(f"--out {self.out}: is a directory")
-        if self.out.exists() and not self.overwrite:
-            raise RunError(f"--out {self.out}: file exists (use --overwrite to replace it, --resume to continue it)")
-        parent = self.out.parent if str(self.out.parent) else Path(".")
+        if out.is_dir():
+            raise RunError(f"{say['out']} {out}: is a directory")
+        if out.exists() and not self.overwrite:
+            raise RunError(
+                f"{say['out']} {out}: file exists (use {say['overwrite']} to replace it, {say['resume']} to continue it)"
+            )
+        parent = out.parent if str(out.parent) else Path(".")
         if not parent.is_dir():
-            raise RunError(f"--out {self.out}: directory {parent} does not exist")
+            raise RunError(f"{say['out']} {out}: directory {parent} does not exist")
 
     # ------------------------------------------------------------------ run
     def run(self) -> RunSummary:
@@ -359,7 +371,8 @@ class Simulation:
             if not self.resume:
                 self._events(0, first=True)
             while step < self.total:
-                interrupt.check()
+                if interrupt.requested:
+                    self._interrupted(step)
                 stops = self._batch(step)
                 sampled = model.advance_sampled([b - a for a, b in zip((step, *stops[:-1]), stops, strict=True)])
                 for nxt, got in zip(stops, sampled, strict=True):
@@ -385,6 +398,20 @@ class Simulation:
         if step >= self.total and self.ckpt.exists():
             self.ckpt.unlink()
         return self._summary(step - start_step, wall)
+
+    def _interrupted(self, step: int) -> None:
+        """Ctrl-C: a checkpoint where the run stands (an output event), then stop saying so."""
+        t = step * self.scene.time.dt
+        self.checkpoints.write(self, step, t, None)
+        if self.interface == "api":
+            how = f"mt.run(scene, {str(self.out)!r}, resume=True)"
+        else:
+            how = f"melange-ti run --out {self.out} --resume"
+        end = self.total * self.scene.time.dt
+        raise Interrupted(
+            f"interrupted at t = {t:g} of {end:g} (step {step} of {self.total}); {self.out} and its checkpoint "
+            f"hold everything up to there: continue with {how}"
+        )
 
     def _due(self, step: int) -> list:
         """The outputs due at ``step``, in list order; those without a schedule (the guard)
@@ -426,7 +453,10 @@ class Simulation:
 
     def _reopen(self, model: Model, dtype):
         if not self.ckpt.exists():
-            raise RunError(f"--resume: no checkpoint {self.ckpt} (the run finished, or never started; use --overwrite)")
+            raise RunError(
+                f"{self.say['resume']}: no checkpoint {self.ckpt} (the run finished, or never started; "
+                f"use {self.say['overwrite']})"
+            )
         try:
             ck = checkpoint.load(self.ckpt)
         except ValueError as exc:

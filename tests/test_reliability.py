@@ -384,6 +384,43 @@ def test_resume_after_sigint_is_bit_identical(interrupted, reference):
     assert_same_run(read_all(d / "int.h5"), reference)
 
 
+def test_ctrl_c_checkpoints_where_the_run_stops(tmp_path):
+    """Ctrl-C long after the last scheduled checkpoint (here only t = 0): the run writes one
+    where it stops, says how far it got and how to continue, and --resume goes on from
+    there, not from the last scheduled checkpoint."""
+    from melange_ti.io.checkpoint import load
+
+    (tmp_path / "scene.toml").write_text(paper_like(**{**KILL_SCENE, "ckpt": 1.0e6}))
+    p = subprocess.Popen(
+        cli("run", "scene.toml", "--out", "run.h5", "--threads", "1"),
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_default_sigint,
+    )
+    deadline = time.monotonic() + 600
+    while p.poll() is None and count_snapshots(tmp_path / "run.h5") < 8 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert p.poll() is None, "the run ended before the test could interrupt it"
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=600)
+    assert p.returncode == 130 and "Traceback" not in err, err
+    said = [ln for ln in err.splitlines() if ln.startswith("melange-ti: interrupted at t = ")]
+    assert len(said) == 1, err
+    t_said = float(said[0].split("t = ")[1].split()[0])
+    assert "melange-ti run --out run.h5 --resume" in said[0], said[0]
+    step = int(load(tmp_path / "run.h5.ckpt")["step"])
+    assert t_said >= 7 * KILL_SCENE["snap"] and step == round(t_said / 0.01), (t_said, step)
+    with h5py.File(tmp_path / "run.h5") as f:
+        assert f["diagnostics/time"][-1] == pytest.approx(t_said)
+    proc = run_cli(["run", "--out", "run.h5", "--threads", "1", "--resume"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(tmp_path / "run.h5") as f:
+        t = f["diagnostics/time"][:]
+        assert f.attrs["complete"] and t[-1] == KILL_SCENE["duration"] and np.all(np.diff(t) > 0)
+
+
 @pytest.mark.slow
 def test_repeated_kills_at_random_moments_then_resume(tmp_path):
     """The full scenario from the issue: 40 icebergs for 300 time units, checkpoints every 20,

@@ -81,8 +81,10 @@ def test_changed_scene_is_validated_and_stored_as_run(tmp_path):
 def test_run_refuses_to_overwrite(small_run):
     path, _ = small_run
     before = path.read_bytes()
-    with pytest.raises(mt.RunError, match="file exists"):
+    with pytest.raises(mt.RunError, match="file exists") as err:
         mt.run(mt.load_scene(overrides=SMALL), path)
+    # the API's own arguments, not the command line's flags
+    assert "overwrite=True" in str(err.value) and "--" not in str(err.value), err.value
     assert path.read_bytes() == before
 
 
