@@ -11,6 +11,7 @@ the API from its docstrings.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import inspect
 import io
 import os
@@ -221,14 +222,9 @@ def api_page() -> str:
     for name in ("load_scene", "run", "open_run", "validated"):
         fn = getattr(api, name)
         out += [f"## `melange_ti.{name}{inspect.signature(fn)}`", "", inspect.getdoc(fn), ""]
-    out += ["## `RunSummary` (returned by `run`)", "", "| field | meaning |", "| --- | --- |"]
-    src = inspect.getsource(RunSummary)
-    for line in src.splitlines():
-        line = line.strip()
-        if ":" in line and not line.startswith(("def", "class", "@", '"', "return", 'f"')) and "(" not in line.split(":")[0]:
-            field, rest = line.split(":", 1)
-            comment = rest.split("#", 1)[1].strip() if "#" in rest else ""
-            out.append(f"| `{field}` | {_cell(comment)} |")
+    out += ["## `RunSummary` (returned by `run`)", "", inspect.getdoc(RunSummary), "", "| field | meaning |", "| --- | --- |"]
+    for f in dataclasses.fields(RunSummary):
+        out.append(f"| `{f.name}` | {_cell(f.metadata['doc'])} |")
     out += [
         "",
         "## The scene object",

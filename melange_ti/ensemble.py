@@ -348,7 +348,9 @@ def _run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, a
             stale = checkpoint_path(path)
             if stale.exists():  # never resume later from another file's checkpoint
                 stale.unlink()
-        sim = Simulation(sc, path, overwrite=action == "overwrite", resume=action == "resume", arch="cpu", progress=False)
+        sim = Simulation(
+            sc, path, overwrite=action == "overwrite", resume=action == "resume", arch="cpu", progress=False, announce=False
+        )
         s = sim.run()
         return {
             "time": s.time,
