@@ -40,7 +40,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="run one scene into an HDF5 (netCDF-4) file", description="Run one scene into a run file.")
     r.add_argument("scene", nargs="?", help=SCENE_HELP)
-    r.add_argument("--out", help="output file (default: NAME_seedSEED.h5, plus the --set values)")
+    r.add_argument(
+        "--out", help="output file (default: NAME_seedSEED.h5 with _KEY=VALUE for each --set, e.g. paper_seed1_duration=1000.h5)"
+    )
     r.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     r.add_argument(
         "--resume", action="store_true", help="continue an interrupted run from its checkpoint, with the scene stored in --out"

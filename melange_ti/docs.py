@@ -71,6 +71,7 @@ def scenes_page() -> str:
         keys = ", ".join(f"`physics.{k.name}`" for k in e.keys) or "—"
         out.append(f"| `{e.name}` | {_cell(e.doc)} | {keys} |")
     out += ["", "An effect the scene does not name is not compiled: it costs nothing.", ""]
+    out += _output_name()
     titles = {
         "scene": "`[scene]`",
         "physics": "`[physics]`",
@@ -96,6 +97,22 @@ def scenes_page() -> str:
         "",
     ]
     return "\n".join(out)
+
+
+def _output_name() -> list[str]:
+    from .cli import default_out
+    from .scene import load, parse_overrides
+
+    example = parse_overrides(["time.duration=1000", "shelf.count=50"])
+    name = default_out(load(None, example), example)
+    return [
+        "## Output name",
+        "",
+        "`melange-ti run` without `--out` writes `NAME_seedSEED.h5` (`scene.name`, `time.seed`), with",
+        "each `--set` value other than the seed added as `_KEY=VALUE`, so runs of different settings",
+        f"get different files: `melange-ti run --set time.duration=1000 --set shelf.count=50` writes `{name}`.",
+        "",
+    ]
 
 
 def _bundled(name: str) -> str:

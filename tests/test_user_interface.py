@@ -352,6 +352,27 @@ def test_default_output_name_carries_the_set_values(tmp_path):
     assert (tmp_path / "paper_seed1_count=3_duration=0.1.h5").exists(), os.listdir(tmp_path)
 
 
+def test_docs_name_the_default_output_the_cli_writes(tmp_path):
+    proc = cli(["run", "--set", "shelf.count=3", "--set", "time.duration=0.1"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    text = (ROOT / "docs" / "scenes.md").read_text()
+    assert "--set time.duration=1000 --set shelf.count=50` writes `paper_seed1_duration=1000_count=50.h5`" in text
+    assert "NAME_seedSEED.h5" in text and "paper_seed1.h5" in (ROOT / "README.md").read_text()
+
+
+def test_effects_list_on_the_command_line_and_in_the_docs(tmp_path):
+    from melange_ti.physics.effects import REGISTRY
+
+    proc = cli(["check", "--set", "scene.effects=gravity, buoyancy,drag", "--set", "shelf.count=3"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "effects gravity, buoyancy, drag," in proc.stdout, proc.stdout
+    assert "'nosuch'" in one_error(cli(["check", "--set", "scene.effects=gravity,nosuch"], tmp_path))
+    row = next(ln for ln in (ROOT / "docs" / "scenes.md").read_text().splitlines() if ln.startswith("| `effects` |"))
+    accepted = row.split("|")[4]
+    assert len(REGISTRY) == 7 and all(e.name in accepted for e in REGISTRY), row
+    assert 'effects = ["gravity", "buoyancy", "drag"]' in row and "--set scene.effects=gravity,buoyancy,drag" in row
+
+
 def test_released_has_one_meaning(small_run):
     """The summary's "released" is the potential energy released, as in summary.csv and the
     energy figure (stats.energy_budget); the mechanical energy lost is named apart."""
