@@ -69,8 +69,9 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--set", action="append", metavar="KEY=V1,V2,...", default=[], help="override; comma lists are swept")
 
     pl = sub.add_parser("plot", help="the paper's figures and the energy budget from run files")
-    pl.add_argument("runs", nargs="+")
+    pl.add_argument("runs", nargs="+", help="run files, or folders of them (e.g. the one ensemble wrote)")
     pl.add_argument("--out", required=True, help="output directory for PNG/PDF files")
+    pl.add_argument("--overwrite", action="store_true", help="replace figures already in --out")
     pl.add_argument("--times", help="comma-separated times for the snapshot and position figures (default: spread over the run)")
     pl.add_argument(
         "--width-m", type=float, help="iceberg width in metres for the physical axes (default: the run's scene.width_m)"

@@ -38,7 +38,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..io.hdf5 import OutputError  # noqa: E402
+from ..errors import RunError  # noqa: E402
+from ..io.hdf5 import OutputError, is_partial, read_run, stored_scene  # noqa: E402
 from ..scene import SceneError  # noqa: E402
 from . import stats  # noqa: E402
 from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners  # noqa: E402
@@ -494,10 +495,45 @@ def plot(
     return written
 
 
+def run_files(args: Sequence[str | Path]) -> list[Path]:
+    """The run files named: each folder stands for the ``*.h5`` files in it (sorted)."""
+    paths: list[Path] = []
+    for arg in map(Path, args):
+        if arg.is_dir():
+            found = sorted(p for p in arg.glob("*.h5") if p.is_file())
+            if not found:
+                raise OutputError(f"{arg}: a folder with no run files (*.h5) in it")
+            paths += found
+        else:
+            paths.append(arg)
+    return paths
+
+
+def refuse_overwrite(out: Path) -> None:
+    """``melange-ti plot`` never replaces figures already in ``out`` unless ``--overwrite``."""
+    ours = {f"{n}.{ext}" for n in FIGURES for ext in ("png", "pdf")} | {"summary.csv"}
+    there = sorted(p.name for p in out.iterdir() if p.name in ours) if out.is_dir() else []
+    if there:
+        raise RunError(
+            f"--out {str(out)!r}: holds {len(there)} files of an earlier plot, e.g. {there[0]} "
+            "(use --overwrite to replace them, or another --out)"
+        )
+
+
 def main(args) -> int:
     """Entry point of ``melange-ti plot``."""
-    written = plot(args.runs, args.out, times=parse_times(args.times), width_m=args.width_m)
+    paths = run_files(args.runs)
     out = Path(args.out)
+    if not args.overwrite:
+        refuse_overwrite(out)
+    for path in paths:
+        if is_partial(path):
+            data = read_run(path)
+            end = stored_scene(path, data).time.duration
+            t = data["diagnostics"]["time"]
+            upto = f"t = {t[-1]:g}" if len(t) else "no diagnostics"
+            print(f"note: {path} is a partial run (stopped, or still running): up to {upto} of {end:g}")
+    written = plot(paths, args.out, times=parse_times(args.times), width_m=args.width_m)
     with open(out / "summary.csv") as fh:
         rows = list(csv.DictReader(fh))
     for row in rows:

@@ -15,6 +15,7 @@ next to ours.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 from pathlib import Path
@@ -252,15 +253,30 @@ def consistent_length(group: h5py.Group) -> int:
 def consistent_lengths(path: str | Path, complete: bool = False):
     """``{"snapshots": S, "diagnostics": D}``: the rows every dataset of each group holds;
     with ``complete``, also whether the run finished (its ``complete`` attribute)."""
+    with _reading(path) as f:
+        lengths = {group: consistent_length(f[group]) for group in ("snapshots", "diagnostics")}
+        return (lengths, bool(f.attrs.get("complete", False))) if complete else lengths
+
+
+@contextlib.contextmanager
+def _reading(path: str | Path):
+    """The run file open for reading (h5py's default locking, see the module's docstring);
+    a missing or unreadable file is a one-line :class:`OutputError`."""
     path = Path(path)
     try:
         with h5py.File(path, "r") as f:
-            lengths = {group: consistent_length(f[group]) for group in ("snapshots", "diagnostics")}
-            return (lengths, bool(f.attrs.get("complete", False))) if complete else lengths
+            yield f
     except FileNotFoundError:
         raise OutputError(f"{path}: not found") from None
     except (OSError, KeyError, ValueError, RuntimeError) as exc:
         raise OutputError(f"{path}: not a readable melange_ti run file ({str(exc).splitlines()[0]})") from None
+
+
+def is_partial(path: str | Path) -> bool:
+    """Whether the run file says its run has not finished (stopped, or still running); a
+    file without the ``complete`` attribute (hand-made) counts as finished."""
+    with _reading(path) as f:
+        return "complete" in f.attrs and not bool(f.attrs["complete"])
 
 
 def read_run(path: str | Path) -> dict:
@@ -269,18 +285,12 @@ def read_run(path: str | Path) -> dict:
     Returns ``{"attrs": {...}, "icebergs": {...}, "snapshots": {...}, "diagnostics": {...}}``.
     Raises :class:`OutputError` with one line for a file that is not a readable run.
     """
-    path = Path(path)
-    try:
-        with h5py.File(path, "r") as f:
-            out = {"attrs": {k: _plain(v) for k, v in f.attrs.items()}}
-            for group in ("icebergs", "snapshots", "diagnostics"):
-                g = f[group]
-                n = consistent_length(g) if group != "icebergs" else None
-                out[group] = {k: (ds[:n] if n is not None else ds[:]) for k, ds in g.items()}
-    except FileNotFoundError:
-        raise OutputError(f"{path}: not found") from None
-    except (OSError, KeyError, ValueError, RuntimeError) as exc:
-        raise OutputError(f"{path}: not a readable melange_ti run file ({str(exc).splitlines()[0]})") from None
+    with _reading(path) as f:
+        out = {"attrs": {k: _plain(v) for k, v in f.attrs.items()}}
+        for group in ("icebergs", "snapshots", "diagnostics"):
+            g = f[group]
+            n = consistent_length(g) if group != "icebergs" else None
+            out[group] = {k: (ds[:n] if n is not None else ds[:]) for k, ds in g.items()}
     return out
 
 
