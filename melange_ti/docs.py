@@ -183,12 +183,43 @@ def output_page() -> str:
     out += [
         "",
         'State is float64 (float32 with `precision = "f32"`); `theta` is continuous, not wrapped. The',
-        "first snapshot and diagnostic are at t = 0, the last at the end of the run. Energy ledgers",
-        "are cumulative since t = 0 and close the budget: `E(0) - E(t) = drag_dissipated +",
-        "collision_dissipated + correction_work` up to the integrator's error.",
+        "first snapshot and diagnostic are at t = 0, the last at the end of the run.",
         "",
+        *_budget_section(),
     ]
     return "\n".join(out)
+
+
+def _budget_section() -> list[str]:
+    """The energy budget, from the schema's ledgers (the same list the summary and the
+    energy figure sum)."""
+    from .physics.schema import ACCUMULATORS, BODIES, ENERGY_LEDGERS
+
+    cols = {c.output: c for t in (BODIES, ACCUMULATORS) for c in t.columns if c.output in ENERGY_LEDGERS}
+    out = [
+        "## The energy budget",
+        "",
+        "Energy ledgers are cumulative since t = 0 (energy units `rho_w g w^3`) and close the budget",
+        "up to the time integrator's own error, which shrinks with `dt`:",
+        "",
+        "```",
+        "E(0) - E(t) = " + " + ".join(ENERGY_LEDGERS) + " + residual",
+        "```",
+        "",
+        "with `E = kinetic_energy + potential_energy`. A ledger of an effect the scene does not name",
+        "stays zero. `melange-ti plot` draws this budget (`energy_budget.png`) and writes the",
+        "residual at the end to `summary.csv` (`energy_residual_end`, with the ledgers summed in",
+        "`budget`); `docs/validation.md` gives its size on the paper run.",
+        "",
+        "| ledger | declared by | meaning |",
+        "| --- | --- | --- |",
+    ]
+    for name in ENERGY_LEDGERS:
+        c = cols[name]
+        who = f"the `{c.owner}` effect" if c.owner else "the contact law (`collisions`, `wall`)"
+        out.append(f"| `{name}` | {who} | {_cell(c.doc)} |")
+    out.append("")
+    return out
 
 
 def cli_page() -> str:

@@ -405,6 +405,50 @@ def test_plot_a_folder_refuses_to_overwrite_and_names_a_partial_run(real_runs, t
     assert "no run files" in _one_line_error(capsys, ["plot", str(tmp_path / "figs" / ".."), "--out", str(tmp_path / "o")])
 
 
+def test_labels_are_words_not_formulas():
+    """Figure legends and the long_name xarray puts on its axes (e.g. tree["diagnostics"]
+    .leading_edge.plot()) read as words: no max_i x_i(t), E_p(0), phi >= pi/4."""
+    import re
+
+    from melange_ti.analysis.figures import ENERGY_STYLE
+    from melange_ti.diagnostics import ENERGY_LEDGERS, FIELDS
+
+    labels = [label for label, *_ in ENERGY_STYLE.values()]
+    labels += [f.long_name for f in FIELDS if f.name not in ENERGY_LEDGERS]  # ledgers: the schema's docs
+    for label in labels:
+        assert not re.search(r"_[a-z]\b|_[a-z]\(|\(t\)|>=|Σ|−|\bpi\b", label), label
+
+
+def test_bundled_summaries_follow_the_code():
+    """Every runs/*/summary.csv has the columns plot writes now, and each energy residual in
+    it was taken with every energy ledger the code books (a summary made from files that
+    lacked one carried a residual 80 times too large); the residual is then within 0.1% of
+    the released energy, as docs/validation.md says. A row whose files could not be re-read
+    says so and claims no residual."""
+    import csv
+
+    from melange_ti.analysis.figures import SUMMARY_COLUMNS
+    from melange_ti.diagnostics import ENERGY_LEDGERS
+
+    root = Path(__file__).resolve().parents[1] / "runs"
+    summaries = sorted(root.glob("*/summary.csv"))
+    assert len(summaries) >= 4, summaries
+    checked = 0
+    for path in summaries:
+        with open(path) as fh:
+            reader = csv.DictReader(fh)
+            assert tuple(reader.fieldnames) == SUMMARY_COLUMNS, (path, reader.fieldnames)
+            for row in reader:
+                if row["budget"].startswith("not recomputed"):
+                    assert row["energy_residual_end"] == "", (path, row["group"])
+                    continue
+                assert row["budget"] == " + ".join(ENERGY_LEDGERS), (path, row["group"], row["budget"])
+                ratio = float(row["energy_residual_end"]) / float(row["energy_released_end"])
+                assert abs(ratio) < 1e-3, (path, row["group"], ratio)
+                checked += 1
+    assert checked >= 3
+
+
 # ---------------------------------------------------------------------------------------
 # User errors: one line, exit status 2
 
