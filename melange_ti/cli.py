@@ -145,6 +145,12 @@ def _resume_scene(args, overrides):
     return stored
 
 
+def _finished(out: Path) -> bool:
+    from .io.hdf5 import consistent_lengths
+
+    return consistent_lengths(out, complete=True)[1]
+
+
 def _cmd_run(args) -> int:
     from . import runtime, scene
     from .simulation import Simulation
@@ -153,6 +159,9 @@ def _cmd_run(args) -> int:
         raise scene.SceneError(f"--threads = {args.threads}: must be >= 1")
     overrides = scene.parse_overrides(args.set)
     sc = _resume_scene(args, overrides) if args.resume else scene.load(args.scene, overrides)
+    if args.resume and _finished(Path(args.out)):
+        print(f"{args.out}: the run has finished (t = {sc.time.duration:g}); nothing to resume")
+        return 0
     out = Path(args.out) if args.out else default_out(sc, overrides)
     history = "melange-ti " + " ".join(sys.argv[1:])
     sim = Simulation(sc, out, overwrite=args.overwrite, resume=args.resume, arch=args.arch, mode=args.mode, history=history)

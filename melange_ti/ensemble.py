@@ -29,6 +29,7 @@ import hashlib
 import io
 import itertools
 import json
+import math
 import os
 import re
 import sys
@@ -418,7 +419,7 @@ def _cluster(scheduler: str | None, workers: int):
             cluster.close()
 
 
-def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec]) -> None:
+def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec], workers: int) -> None:
     from distributed import as_completed
 
     tag = uuid.uuid4().hex[:8]
@@ -442,6 +443,8 @@ def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec]) -> None:
             if res is not None and res.pop("ok"):
                 r.status, r.summary = "complete", res
                 msg = f"[{done}/{len(todo)}] {r.file}: done in {res['wall_seconds']:.1f} s"
+                if done == 1 and len(todo) > 1:
+                    msg += "; " + estimate(res["wall_seconds"], len(todo) - 1, workers)
             else:
                 if res is not None:  # the run raised inside the task
                     r.error, r.trace = res["error"], res["traceback"]
@@ -465,6 +468,14 @@ def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec]) -> None:
             bar.close()
         for fut in futures:
             fut.cancel()
+
+
+def estimate(first: float, left: int, workers: int) -> str:
+    """The time the ``left`` runs should take on ``workers``, from the first run's ``first`` s."""
+    rounds = math.ceil(left / max(1, workers))
+    total = rounds * first
+    when = f"{total / 60:.0f} min" if total >= 120 else f"{total:.0f} s"
+    return f"the other {left} should take about {when} ({rounds} round{'s' if rounds != 1 else ''} of ~{first:.0f} s)"
 
 
 def _fmt(v: Any, spec: str) -> str:
@@ -533,8 +544,19 @@ def main(args) -> int:
     try:
         if todo:
             workers = min(args.workers or os.cpu_count() or 1, len(todo))
+            skipped = len(runs) - len(todo)
+            print(
+                f"ensemble: {len(todo)} run{'s' if len(todo) != 1 else ''} to do"
+                + (f" ({skipped} already complete)" if skipped else "")
+                + f" into {out_dir}, on {args.scheduler or f'{workers} local worker' + ('s' if workers != 1 else '')}; "
+                "an estimate of the time follows the first run",
+                file=sys.stderr,
+                flush=True,
+            )
             with _cluster(args.scheduler, workers) as (client, where):
-                _run_all(client, text, out_dir, todo)
+                if args.scheduler:
+                    workers = max(1, len(client.scheduler_info().get("workers", {})))
+                _run_all(client, text, out_dir, todo, workers)
     except KeyboardInterrupt:
         write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
         print("melange-ti: interrupted; run the same command again to resume the unfinished runs", file=sys.stderr)
