@@ -7,6 +7,7 @@ ledgers and energies to every output that is due.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
@@ -410,8 +411,9 @@ class Simulation:
                 if self.startup is None:
                     self.startup = (wallclock.perf_counter() - t0, stops[-1] - step)
                     if stamp is not None:
-                        stamp.parent.mkdir(parents=True, exist_ok=True)
-                        stamp.touch()
+                        with contextlib.suppress(OSError):  # a read-only cache: said again next time
+                            stamp.parent.mkdir(parents=True, exist_ok=True)
+                            stamp.touch()
                 for nxt, got in zip(stops, sampled, strict=True):
                     if bar is not None:
                         if step == start_step:
