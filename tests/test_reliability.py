@@ -42,6 +42,14 @@ def cli(*args: str) -> list[str]:
     return [PY, "-m", "melange_ti", *args]
 
 
+def start_cli(*args: str, cwd: Path) -> subprocess.Popen:
+    """``python -m melange_ti ARGS`` started in ``cwd``, output captured as text, with
+    SIGINT at its default so a test's Ctrl-C reaches it (:func:`_default_sigint`)."""
+    return subprocess.Popen(
+        cli(*args), cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint
+    )
+
+
 def run_cli(args: list[str], cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
     return subprocess.run(cli(*args), cwd=cwd, capture_output=True, text=True, timeout=timeout)
 
@@ -213,17 +221,7 @@ def interrupted(tmp_path_factory):
     d = tmp_path_factory.mktemp("nothing_lost")
     (d / "scene.toml").write_text(paper_like(**KILL_SCENE))
     common = ["run", "scene.toml", "--threads", "1", *RUN_SET]
-    procs = {
-        name: subprocess.Popen(
-            cli(*common, "--out", f"{name}.h5"),
-            cwd=d,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            preexec_fn=_default_sigint,
-        )
-        for name in ("ref", "kill", "int")
-    }
+    procs = {name: start_cli(*common, "--out", f"{name}.h5", cwd=d) for name in ("ref", "kill", "int")}
     follower = Follower(d / "kill.h5")
     targets = {"kill": N_SNAP // 2, "int": (2 * N_SNAP) // 5}  # t = 500 and t = 400 of 1000
     signals = {"kill": signal.SIGKILL, "int": signal.SIGINT}
@@ -391,14 +389,7 @@ def test_ctrl_c_checkpoints_where_the_run_stops(tmp_path):
     from melange_ti.io.checkpoint import load
 
     (tmp_path / "scene.toml").write_text(paper_like(**{**KILL_SCENE, "ckpt": 1.0e6}))
-    p = subprocess.Popen(
-        cli("run", "scene.toml", "--out", "run.h5", "--threads", "1"),
-        cwd=tmp_path,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        preexec_fn=_default_sigint,
-    )
+    p = start_cli("run", "scene.toml", "--out", "run.h5", "--threads", "1", cwd=tmp_path)
     deadline = time.monotonic() + 600
     while p.poll() is None and count_snapshots(tmp_path / "run.h5") < 8 and time.monotonic() < deadline:
         time.sleep(0.02)
