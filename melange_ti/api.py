@@ -10,7 +10,9 @@ Errors are the command line's, as exceptions with the same one-line messages:
 :class:`SceneError` (a scene or value that cannot be run), :class:`RunError` (an output that
 exists, a resume that cannot continue), :class:`ArchError` (no usable backend),
 :class:`OutputError` (a file that cannot be written or read), :class:`NumericalError` and
-:class:`ContactOverflow` (a run stopped by a guard; its output up to there is kept).
+:class:`ContactOverflow` (a run stopped by a guard; its output up to there is kept),
+:class:`Interrupted` (Ctrl-C, a ``KeyboardInterrupt``: a checkpoint is written where the run
+stopped; ``resume=True`` continues it).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from .errors import ArchError, ContactOverflow, NumericalError, RunError
+from .errors import ArchError, ContactOverflow, Interrupted, NumericalError, RunError
 from .io.hdf5 import OutputError
 from .scene import Scene, SceneError
 
@@ -65,7 +67,9 @@ def run(
     from .simulation import Simulation
 
     scene = validated(scene)
-    sim = Simulation(scene, out, overwrite=overwrite, resume=resume, arch=arch, progress=progress, history="melange_ti.run()")
+    sim = Simulation(
+        scene, out, overwrite=overwrite, resume=resume, arch=arch, progress=progress, history="melange_ti.run()", interface="api"
+    )
     runtime.init(arch, threads, scene.precision)
     return sim.run()
 
@@ -93,8 +97,10 @@ def _open_tree(xr, path: Path, complete: bool):
     a Python file object of its own: HDF5 then shares nothing with any earlier open of the
     file in this process (with a path, it serves a new open from a still-open view of the
     same file, which a failed open can leave behind: stale, it never shows a later row).
-    Closing the tree closes that file object too."""
-    kw = dict(engine="h5netcdf", phony_dims="access", driver_kwds={"locking": False})
+    Closing the tree closes that file object too. h5py's default locking, as a user's own
+    ``h5py.File(path)`` or ``xr.open_datatree(path, engine="h5netcdf")`` takes it: HDF5
+    refuses two opens of one file in a process with different locking flags."""
+    kw = dict(engine="h5netcdf", phony_dims="access")
     if complete:
         return xr.open_datatree(path, **kw)
     fh = open(path, "rb")  # noqa: SIM115 (closed with the tree)
@@ -131,7 +137,6 @@ def open_run(path: str | Path):
     for attempt in range(_OPEN_ATTEMPTS):
         lengths, complete = consistent_lengths(path, complete=True)  # also: one-line OutputError for a missing or foreign file
         try:
-            # no HDF5 file lock: the writer takes none either, so a running file can be read
             tree = _open_tree(xr, path, complete)
             break
         except (OSError, KeyError, ValueError) as exc:
@@ -156,6 +161,7 @@ def open_run(path: str | Path):
 __all__ = [
     "ArchError",
     "ContactOverflow",
+    "Interrupted",
     "NumericalError",
     "OutputError",
     "RunError",

@@ -28,8 +28,8 @@ def _ledger_fields() -> tuple[Field, ...]:
 
 
 FIELDS: tuple[Field, ...] = (
-    Field("capsized_fraction", "f8", "1", "fraction of icebergs with capsize angle phi >= pi/4"),
-    Field("leading_edge", "f8", "w", "max_i x_i(t) - max_i x_i(0)"),
+    Field("capsized_fraction", "f8", "1", "fraction of icebergs capsized (tilted 45 degrees or more)"),
+    Field("leading_edge", "f8", "w", "leading edge: how far the front (the foremost iceberg centre) has advanced since t = 0"),
     Field("kinetic_energy", "f8", E, "kinetic energy, summed over icebergs"),
     Field("potential_energy", "f8", E, "potential energy (gravity and buoyancy), summed over icebergs"),
     *_ledger_fields(),

@@ -11,6 +11,7 @@ the API from its docstrings.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import inspect
 import io
 import os
@@ -70,6 +71,7 @@ def scenes_page() -> str:
         keys = ", ".join(f"`physics.{k.name}`" for k in e.keys) or "—"
         out.append(f"| `{e.name}` | {_cell(e.doc)} | {keys} |")
     out += ["", "An effect the scene does not name is not compiled: it costs nothing.", ""]
+    out += _output_name()
     titles = {
         "scene": "`[scene]`",
         "physics": "`[physics]`",
@@ -95,6 +97,22 @@ def scenes_page() -> str:
         "",
     ]
     return "\n".join(out)
+
+
+def _output_name() -> list[str]:
+    from .cli import default_out
+    from .scene import load, parse_overrides
+
+    example = parse_overrides(["time.duration=1000", "shelf.count=50"])
+    name = default_out(load(None, example), example)
+    return [
+        "## Output name",
+        "",
+        "`melange-ti run` without `--out` writes `NAME_seedSEED.h5` (`scene.name`, `time.seed`), with",
+        "each `--set` value other than the seed added as `_KEY=VALUE`, so runs of different settings",
+        f"get different files: `melange-ti run --set time.duration=1000 --set shelf.count=50` writes `{name}`.",
+        "",
+    ]
 
 
 def _bundled(name: str) -> str:
@@ -128,7 +146,9 @@ def output_page() -> str:
         "The file is written as the run goes: each snapshot is flushed at once, diagnostics at each",
         "snapshot and checkpoint, the `time` variable of a group last, so a reader (also while the",
         "run is writing) or a file cut short by `kill -9` is consistent up to the shortest `time`.",
-        "The writer takes no HDF5 file lock, so readers can open a running file. `complete` is",
+        "The writer takes no HDF5 file lock, so readers can open a running file, and every reader of",
+        "melange_ti opens with h5py's default locking: `h5py.File(path)` and `xr.open_datatree(path,",
+        "engine='h5netcdf')` open a file that `mt.open_run` holds, finished or running. `complete` is",
         "true once the run has finished; until then `mt.open_run` reads the file through a Python",
         "file object of its own, so that a notebook following a run sees every new row even while",
         "it holds other run files open (HDF5 would otherwise reuse the stale view of the file that",
@@ -163,12 +183,43 @@ def output_page() -> str:
     out += [
         "",
         'State is float64 (float32 with `precision = "f32"`); `theta` is continuous, not wrapped. The',
-        "first snapshot and diagnostic are at t = 0, the last at the end of the run. Energy ledgers",
-        "are cumulative since t = 0 and close the budget: `E(0) - E(t) = drag_dissipated +",
-        "collision_dissipated + correction_work` up to the integrator's error.",
+        "first snapshot and diagnostic are at t = 0, the last at the end of the run.",
         "",
+        *_budget_section(),
     ]
     return "\n".join(out)
+
+
+def _budget_section() -> list[str]:
+    """The energy budget, from the schema's ledgers (the same list the summary and the
+    energy figure sum)."""
+    from .physics.schema import ACCUMULATORS, BODIES, ENERGY_LEDGERS
+
+    cols = {c.output: c for t in (BODIES, ACCUMULATORS) for c in t.columns if c.output in ENERGY_LEDGERS}
+    out = [
+        "## The energy budget",
+        "",
+        "Energy ledgers are cumulative since t = 0 (energy units `rho_w g w^3`) and close the budget",
+        "up to the time integrator's own error, which shrinks with `dt`:",
+        "",
+        "```",
+        "E(0) - E(t) = " + " + ".join(ENERGY_LEDGERS) + " + residual",
+        "```",
+        "",
+        "with `E = kinetic_energy + potential_energy`. A ledger of an effect the scene does not name",
+        "stays zero. `melange-ti plot` draws this budget (`energy_budget.png`) and writes the",
+        "residual at the end to `summary.csv` (`energy_residual_end`, with the ledgers summed in",
+        "`budget`); `docs/validation.md` gives its size on the paper run.",
+        "",
+        "| ledger | declared by | meaning |",
+        "| --- | --- | --- |",
+    ]
+    for name in ENERGY_LEDGERS:
+        c = cols[name]
+        who = f"the `{c.owner}` effect" if c.owner else "the contact law (`collisions`, `wall`)"
+        out.append(f"| `{name}` | {who} | {_cell(c.doc)} |")
+    out.append("")
+    return out
 
 
 def cli_page() -> str:
@@ -219,14 +270,9 @@ def api_page() -> str:
     for name in ("load_scene", "run", "open_run", "validated"):
         fn = getattr(api, name)
         out += [f"## `melange_ti.{name}{inspect.signature(fn)}`", "", inspect.getdoc(fn), ""]
-    out += ["## `RunSummary` (returned by `run`)", "", "| field | meaning |", "| --- | --- |"]
-    src = inspect.getsource(RunSummary)
-    for line in src.splitlines():
-        line = line.strip()
-        if ":" in line and not line.startswith(("def", "class", "@", '"', "return", 'f"')) and "(" not in line.split(":")[0]:
-            field, rest = line.split(":", 1)
-            comment = rest.split("#", 1)[1].strip() if "#" in rest else ""
-            out.append(f"| `{field}` | {_cell(comment)} |")
+    out += ["## `RunSummary` (returned by `run`)", "", inspect.getdoc(RunSummary), "", "| field | meaning |", "| --- | --- |"]
+    for f in dataclasses.fields(RunSummary):
+        out.append(f"| `{f.name}` | {_cell(f.metadata['doc'])} |")
     out += [
         "",
         "## The scene object",

@@ -29,6 +29,7 @@ import hashlib
 import io
 import itertools
 import json
+import math
 import os
 import re
 import sys
@@ -232,7 +233,7 @@ def _read_state(path: Path) -> tuple[str | None, bool] | None:
     import h5py
 
     try:
-        with h5py.File(path, "r", locking=False) as f:
+        with h5py.File(path, "r") as f:  # default locking, as a user's own h5py (io.hdf5)
             toml = f.attrs.get("scene_toml")
             if isinstance(toml, bytes):
                 toml = toml.decode()
@@ -269,7 +270,7 @@ def _last_diagnostics(path: Path) -> dict:
     from .io.hdf5 import consistent_length
 
     try:
-        with h5py.File(path, "r", locking=False) as f:
+        with h5py.File(path, "r") as f:  # default locking, as a user's own h5py (io.hdf5)
             g = f["diagnostics"]
             n = consistent_length(g)
             if n == 0:
@@ -348,7 +349,9 @@ def _run_one(text: str, overrides: list[tuple[str, Any]], seed: int, out: str, a
             stale = checkpoint_path(path)
             if stale.exists():  # never resume later from another file's checkpoint
                 stale.unlink()
-        sim = Simulation(sc, path, overwrite=action == "overwrite", resume=action == "resume", arch=arch, progress=False)
+        sim = Simulation(
+            sc, path, overwrite=action == "overwrite", resume=action == "resume", arch=arch, progress=False, announce=False
+        )
         s = sim.run()
         return {
             "time": s.time,
@@ -416,7 +419,7 @@ def _cluster(scheduler: str | None, workers: int):
             cluster.close()
 
 
-def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec], arch: str = "cpu") -> None:
+def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec], workers: int, arch: str = "cpu") -> None:
     from distributed import as_completed
 
     tag = uuid.uuid4().hex[:8]
@@ -440,6 +443,8 @@ def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec], arch: str = 
             if res is not None and res.pop("ok"):
                 r.status, r.summary = "complete", res
                 msg = f"[{done}/{len(todo)}] {r.file}: done in {res['wall_seconds']:.1f} s"
+                if done == 1 and len(todo) > 1:
+                    msg += "; " + estimate(res["wall_seconds"], len(todo) - 1, workers)
             else:
                 if res is not None:  # the run raised inside the task
                     r.error, r.trace = res["error"], res["traceback"]
@@ -463,6 +468,14 @@ def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec], arch: str = 
             bar.close()
         for fut in futures:
             fut.cancel()
+
+
+def estimate(first: float, left: int, workers: int) -> str:
+    """The time the ``left`` runs should take on ``workers``, from the first run's ``first`` s."""
+    rounds = math.ceil(left / max(1, workers))
+    total = rounds * first
+    when = f"{total / 60:.0f} min" if total >= 120 else f"{total:.0f} s"
+    return f"the other {left} should take about {when} ({rounds} round{'s' if rounds != 1 else ''} of ~{first:.0f} s)"
 
 
 def _fmt(v: Any, spec: str) -> str:
@@ -536,8 +549,19 @@ def main(args) -> int:
     try:
         if todo:
             workers = min(args.workers or os.cpu_count() or 1, len(todo))
+            skipped = len(runs) - len(todo)
+            print(
+                f"ensemble: {len(todo)} run{'s' if len(todo) != 1 else ''} to do"
+                + (f" ({skipped} already complete)" if skipped else "")
+                + f" into {out_dir}, on {args.scheduler or f'{workers} local worker' + ('s' if workers != 1 else '')}; "
+                "an estimate of the time follows the first run",
+                file=sys.stderr,
+                flush=True,
+            )
             with _cluster(args.scheduler, workers) as (client, where):
-                _run_all(client, text, out_dir, todo, args.arch)
+                if args.scheduler:
+                    workers = max(1, len(client.scheduler_info().get("workers", {})))
+                _run_all(client, text, out_dir, todo, workers, args.arch)
     except KeyboardInterrupt:
         write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
         print("melange-ti: interrupted; run the same command again to resume the unfinished runs", file=sys.stderr)

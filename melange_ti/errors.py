@@ -15,3 +15,8 @@ class NumericalError(RuntimeError):
 
 class ContactOverflow(RuntimeError):
     """A body had more contact partners than slots; raised instead of dropping contacts (exit 3)."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT) stopped a run at an output event, with a checkpoint written there; the
+    message says how far it got and how to continue (exit status 130)."""

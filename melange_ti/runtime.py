@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+from pathlib import Path
 
 import taichi as ti
 
@@ -138,3 +139,22 @@ def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", 
 def backend() -> str | None:
     """The backend Taichi runs on (``"x64"``, ``"vulkan"``, ...), or None before :func:`init`."""
     return None if _current is None else _current[1]
+
+
+def kernels_stamp(key: str) -> Path | None:
+    """A marker beside Taichi's offline cache for kernels compiled once for ``key`` (the
+    effect set, precision, kernel form and the physics sources): present, the next run loads
+    them from the cache instead of compiling. ``None`` when the offline cache is off. A
+    cleared cache takes its markers with it."""
+    import hashlib
+
+    from taichi.lang import impl
+
+    cfg = impl.current_cfg()
+    if not cfg.offline_cache:
+        return None
+    here = Path(__file__).resolve().parent
+    h = hashlib.sha256(f"{key}|{ti.__version__}|{cfg.arch}".encode())
+    for src in sorted([here / "model.py", *(here / "physics").rglob("*.py")]):
+        h.update(src.read_bytes())
+    return Path(cfg.offline_cache_file_path) / "melange_ti" / h.hexdigest()[:32]

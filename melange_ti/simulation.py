@@ -7,19 +7,20 @@ ledgers and energies to every output that is due.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
 import time as wallclock
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from . import __version__
 from . import diagnostics as diag
-from .errors import NumericalError, RunError
+from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
 from .io.hdf5 import OutputError, RunWriter, read_run
 from .model import Model
@@ -32,27 +33,57 @@ from .scene import Scene
 BATCH_MAX = 64
 BATCH_BYTES = 32 << 20
 
+# How a message names the output, overwriting and resuming: the command line's flags, or
+# the arguments of melange_ti.run (Simulation(interface=...))
+SPELLINGS = {
+    "cli": {"out": "--out", "overwrite": "--overwrite", "resume": "--resume"},
+    "api": {"out": "out", "overwrite": "overwrite=True", "resume": "resume=True"},
+}
+
+
+def _doc(text: str):
+    """A field with its meaning (docs/api.md's RunSummary table is generated from these)."""
+    return field(metadata={"doc": text})
+
 
 @dataclass(frozen=True)
 class RunSummary:
-    path: Path
-    steps: int
-    wall_seconds: float
-    steps_per_second: float
-    time: float
-    capsized_fraction: float
-    leading_edge: float
-    energy_released: float  # potential energy released, E_p(0) - E_p(t)
-    energy_lost: float  # mechanical energy lost, E(0) - E(t), E = E_k + E_p
-    dissipated: float  # what the ledgers booked (drag, collisions, corrections)
-    energy_residual: float  # energy_lost - dissipated: the integrator's error
-    backend: str = "x64"  # the Taichi backend that ran it ("x64", "arm64", "cuda", "vulkan", ...)
+    """What :func:`melange_ti.run` returns (and ``melange-ti run`` prints): how the run went
+    and its end state; energies in ``rho_w g w^3`` per unit length, times in ``sqrt(w/g)``."""
+
+    path: Path = _doc("the run file written")
+    steps: int = _doc("time steps taken by this call (after a resume: since the checkpoint)")
+    wall_seconds: float = _doc("wall-clock seconds of the whole call, start-up included")
+    startup_seconds: float = _doc(
+        "wall-clock seconds of the first launch: compiling the kernels (or loading them from Taichi's cache) and its "
+        "first `startup_steps` steps"
+    )
+    startup_steps: int = _doc("steps taken in the first launch (timed with the start-up)")
+    steps_per_second: float = _doc(
+        "stepping speed after the first launch, compiling excluded (NaN when the run was too short to have steps after it)"
+    )
+    compiled: bool = _doc("true when the kernels were compiled, false when loaded from the cache of an earlier run")
+    time: float = _doc("simulated time reached")
+    capsized_fraction: float = _doc("fraction of icebergs capsized (tilt past 45 degrees) at the end")
+    leading_edge: float = _doc("how far the front moved, max x(t) - max x(0), in widths, at the end")
+    energy_released: float = _doc("potential energy released, E_p(0) - E_p(t)")
+    energy_lost: float = _doc("mechanical energy lost, E(0) - E(t), E = E_k + E_p")
+    dissipated: float = _doc("what the energy ledgers booked (docs/output.md, the energy budget)")
+    energy_residual: float = _doc("energy_lost - dissipated: the time integrator's error")
+    backend: str = _doc('the Taichi backend that ran it ("x64", "arm64", "cuda", "vulkan", ...)')
 
     def lines(self) -> list[str]:
         rel = self.energy_residual / self.energy_released if self.energy_released else float("nan")
+        how = "compiling the kernels" if self.compiled else "loading the kernels from the cache"
+        rest = self.steps - self.startup_steps
+        speed = (
+            f"then {rest} steps at {self.steps_per_second:,.0f} steps/s"
+            if math.isfinite(self.steps_per_second)
+            else "no steps after it to time apart"
+        )
         return [
-            f"simulated t = {self.time:g} in {self.steps} steps, {self.wall_seconds:.1f} s wall, "
-            f"{self.steps_per_second:,.0f} steps/s",
+            f"simulated t = {self.time:g} in {self.steps} steps, {self.wall_seconds:.1f} s wall: {self.startup_seconds:.1f} s "
+            f"{how} with the first {self.startup_steps} steps, {speed}",
             f"capsized fraction {self.capsized_fraction:.3f}, leading edge {self.leading_edge:.3f} widths",
             f"energy: released (potential, E_p(0) - E_p(t)) {self.energy_released:.6g}; lost (E(0) - E(t)) "
             f"{self.energy_lost:.6g} = dissipated {self.dissipated:.6g} + residual {self.energy_residual:.3g} "
@@ -73,8 +104,8 @@ class _DeferredInterrupt:
     Python raises ``KeyboardInterrupt`` wherever the main thread happens to be, and where
     that is a garbage-collection or weakref callback it is printed and dropped ("Exception
     ignored in ...") and the run goes on. This handler only records the signal; the run
-    loop raises at its next check (at most one output interval later), where the file and
-    checkpoint are in a consistent state. Installed only in the main thread, and not where
+    loop stops at its next output event (at most one snapshot interval later) and writes a
+    checkpoint there (:meth:`Simulation._interrupted`). Installed only in the main thread, and not where
     SIGINT is ignored (e.g. under ``nohup``).
     """
 
@@ -93,10 +124,6 @@ class _DeferredInterrupt:
 
     def _record(self, signum, frame) -> None:
         self.requested = True
-
-    def check(self) -> None:
-        if self.requested:
-            raise KeyboardInterrupt
 
     def restore(self) -> None:
         if self.installed:
@@ -261,7 +288,10 @@ class Simulation:
     the earliest next event, where one packed transfer (:meth:`Model.sample`) feeds every
     output that is due, in list order. ``resume`` continues an interrupted run from its
     checkpoint so that the final file is bit-identical to an uninterrupted run.
-    ``progress``: a bar on a terminal (``None``: when stderr is one).
+    ``progress``: a bar on a terminal (``None``: when stderr is one). ``interface``
+    (``"cli"`` or ``"api"``): whether messages name the command line's flags or
+    :func:`melange_ti.run`'s arguments. ``announce``: without a progress bar, one line on
+    stderr when the kernels are being compiled (not when loaded from the cache).
     """
 
     def __init__(
@@ -275,6 +305,8 @@ class Simulation:
         mode: str = "auto",
         on_event: Callable[[int], None] | None = None,
         history: str | None = None,
+        interface: str = "cli",
+        announce: bool = True,
     ):
         self.scene = scene
         self.history = history or f"created by melange_ti {__version__} (Python API)"
@@ -286,6 +318,9 @@ class Simulation:
         self.progress = sys.stderr.isatty() if progress is None else progress
         self.mode = mode
         self.on_event = on_event
+        self.say = SPELLINGS[interface]
+        self.interface = interface
+        self.announce = announce
         dt = scene.time.dt
         self.total = scene.time.steps
 
@@ -300,21 +335,25 @@ class Simulation:
             Checkpoints(every(scene.output.checkpoint_interval), diagnostics),
         ]
         self.diagnostics = diagnostics
+        self.checkpoints = self.outputs[-1]
         self.totals = None  # the model's Totals, fetched with each event's sample
         self._check_paths()
 
     def _check_paths(self) -> None:
+        out, say = self.out, self.say
         if self.resume:
-            if not self.out.exists():
-                raise RunError(f"--resume: {self.out} does not exist")
+            if not out.exists():
+                raise RunError(f"{say['resume']}: {out} does not exist")
             return
-        if self.out.is_dir():
-            raise RunError(f"--out {self.out}: is a directory")
-        if self.out.exists() and not self.overwrite:
-            raise RunError(f"--out {self.out}: file exists (use --overwrite to replace it, --resume to continue it)")
-        parent = self.out.parent if str(self.out.parent) else Path(".")
+        if out.is_dir():
+            raise RunError(f"{say['out']} {out}: is a directory")
+        if out.exists() and not self.overwrite:
+            raise RunError(
+                f"{say['out']} {out}: file exists (use {say['overwrite']} to replace it, {say['resume']} to continue it)"
+            )
+        parent = out.parent if str(out.parent) else Path(".")
         if not parent.is_dir():
-            raise RunError(f"--out {self.out}: directory {parent} does not exist")
+            raise RunError(f"{say['out']} {out}: directory {parent} does not exist")
 
     # ------------------------------------------------------------------ run
     def run(self) -> RunSummary:
@@ -346,23 +385,36 @@ class Simulation:
             writer = RunWriter(self.out, attrs, model.constants(), dtype)
         self.writer = writer
         self.total_mass = float(model.constants()["mass"].sum())
+        # the first launch compiles the kernels, or loads them from Taichi's offline cache
+        stamp = runtime.kernels_stamp(f"{','.join(scene.effects.names())}|{scene.precision}|{model.mode}")
+        self.compiled = stamp is None or not stamp.exists()
+        what = "compiling kernels (cached for later runs)" if self.compiled else "loading kernels from the cache"
         bar = None
         if self.progress:
             from tqdm import tqdm
 
             bar = tqdm(total=self.total, initial=start_step, unit="step", unit_scale=True, dynamic_ncols=True, leave=False)
-            # the first advance compiles the kernels (cached on disk after the first run)
-            bar.set_description("compiling kernels (first run only)")
+            bar.set_description(what)
+        elif self.compiled and self.announce:
+            print(f"melange-ti: {what}", file=sys.stderr, flush=True)
         t0 = wallclock.perf_counter()
+        self.startup = None  # (seconds, steps) of the first launch
         step = start_step
         interrupt = _DeferredInterrupt()
         try:
             if not self.resume:
                 self._events(0, first=True)
             while step < self.total:
-                interrupt.check()
+                if interrupt.requested:
+                    self._interrupted(step)
                 stops = self._batch(step)
                 sampled = model.advance_sampled([b - a for a, b in zip((step, *stops[:-1]), stops, strict=True)])
+                if self.startup is None:
+                    self.startup = (wallclock.perf_counter() - t0, stops[-1] - step)
+                    if stamp is not None:
+                        with contextlib.suppress(OSError):  # a read-only cache: said again next time
+                            stamp.parent.mkdir(parents=True, exist_ok=True)
+                            stamp.touch()
                 for nxt, got in zip(stops, sampled, strict=True):
                     if bar is not None:
                         if step == start_step:
@@ -386,6 +438,20 @@ class Simulation:
         if step >= self.total and self.ckpt.exists():
             self.ckpt.unlink()
         return self._summary(step - start_step, wall)
+
+    def _interrupted(self, step: int) -> None:
+        """Ctrl-C: a checkpoint where the run stands (an output event), then stop saying so."""
+        t = step * self.scene.time.dt
+        self.checkpoints.write(self, step, t, None)
+        if self.interface == "api":
+            how = f"mt.run(scene, {str(self.out)!r}, resume=True)"
+        else:
+            how = f"melange-ti run --out {self.out} --resume"
+        end = self.total * self.scene.time.dt
+        raise Interrupted(
+            f"interrupted at t = {t:g} of {end:g} (step {step} of {self.total}); {self.out} and its checkpoint "
+            f"hold everything up to there: continue with {how}"
+        )
 
     def _due(self, step: int) -> list:
         """The outputs due at ``step``, in list order; those without a schedule (the guard)
@@ -427,7 +493,10 @@ class Simulation:
 
     def _reopen(self, model: Model, dtype):
         if not self.ckpt.exists():
-            raise RunError(f"--resume: no checkpoint {self.ckpt} (the run finished, or never started; use --overwrite)")
+            raise RunError(
+                f"{self.say['resume']}: no checkpoint {self.ckpt} (the run finished, or never started; "
+                f"use {self.say['overwrite']})"
+            )
         try:
             ck = checkpoint.load(self.ckpt)
         except ValueError as exc:
@@ -451,11 +520,15 @@ class Simulation:
         energy = row.get("kinetic_energy", 0.0) + row.get("potential_energy", 0.0)
         lost = self.e0 - energy
         dissipated = sum(row.get(name, 0.0) for name in diag.ENERGY_LEDGERS)
+        first_wall, first_steps = self.startup or (wall, steps)
         return RunSummary(
             path=self.out,
             steps=steps,
             wall_seconds=wall,
-            steps_per_second=steps / wall if wall > 0 else float("inf"),
+            startup_seconds=first_wall,
+            startup_steps=first_steps,
+            steps_per_second=(steps - first_steps) / (wall - first_wall) if steps > first_steps else float("nan"),
+            compiled=self.compiled,
             time=row.get("time", 0.0),
             capsized_fraction=row.get("capsized_fraction", float("nan")),
             leading_edge=row.get("leading_edge", float("nan")),

@@ -42,6 +42,14 @@ def cli(*args: str) -> list[str]:
     return [PY, "-m", "melange_ti", *args]
 
 
+def start_cli(*args: str, cwd: Path) -> subprocess.Popen:
+    """``python -m melange_ti ARGS`` started in ``cwd``, output captured as text, with
+    SIGINT at its default so a test's Ctrl-C reaches it (:func:`_default_sigint`)."""
+    return subprocess.Popen(
+        cli(*args), cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint
+    )
+
+
 def run_cli(args: list[str], cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
     return subprocess.run(cli(*args), cwd=cwd, capture_output=True, text=True, timeout=timeout)
 
@@ -213,17 +221,7 @@ def interrupted(tmp_path_factory):
     d = tmp_path_factory.mktemp("nothing_lost")
     (d / "scene.toml").write_text(paper_like(**KILL_SCENE))
     common = ["run", "scene.toml", "--threads", "1", *RUN_SET]
-    procs = {
-        name: subprocess.Popen(
-            cli(*common, "--out", f"{name}.h5"),
-            cwd=d,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            preexec_fn=_default_sigint,
-        )
-        for name in ("ref", "kill", "int")
-    }
+    procs = {name: start_cli(*common, "--out", f"{name}.h5", cwd=d) for name in ("ref", "kill", "int")}
     follower = Follower(d / "kill.h5")
     targets = {"kill": N_SNAP // 2, "int": (2 * N_SNAP) // 5}  # t = 500 and t = 400 of 1000
     signals = {"kill": signal.SIGKILL, "int": signal.SIGINT}
@@ -382,6 +380,36 @@ def test_resume_after_sigint_is_bit_identical(interrupted, reference):
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr
     assert_same_run(read_all(d / "int.h5"), reference)
+
+
+def test_ctrl_c_checkpoints_where_the_run_stops(tmp_path):
+    """Ctrl-C long after the last scheduled checkpoint (here only t = 0): the run writes one
+    where it stops, says how far it got and how to continue, and --resume goes on from
+    there, not from the last scheduled checkpoint."""
+    from melange_ti.io.checkpoint import load
+
+    (tmp_path / "scene.toml").write_text(paper_like(**{**KILL_SCENE, "ckpt": 1.0e6}))
+    p = start_cli("run", "scene.toml", "--out", "run.h5", "--threads", "1", cwd=tmp_path)
+    deadline = time.monotonic() + 600
+    while p.poll() is None and count_snapshots(tmp_path / "run.h5") < 8 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert p.poll() is None, "the run ended before the test could interrupt it"
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=600)
+    assert p.returncode == 130 and "Traceback" not in err, err
+    said = [ln for ln in err.splitlines() if ln.startswith("melange-ti: interrupted at t = ")]
+    assert len(said) == 1, err
+    t_said = float(said[0].split("t = ")[1].split()[0])
+    assert "melange-ti run --out run.h5 --resume" in said[0], said[0]
+    step = int(load(tmp_path / "run.h5.ckpt")["step"])
+    assert t_said >= 7 * KILL_SCENE["snap"] and step == round(t_said / 0.01), (t_said, step)
+    with h5py.File(tmp_path / "run.h5") as f:
+        assert f["diagnostics/time"][-1] == pytest.approx(t_said)
+    proc = run_cli(["run", "--out", "run.h5", "--threads", "1", "--resume"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(tmp_path / "run.h5") as f:
+        t = f["diagnostics/time"][:]
+        assert f.attrs["complete"] and t[-1] == KILL_SCENE["duration"] and np.all(np.diff(t) > 0)
 
 
 @pytest.mark.slow

@@ -81,8 +81,10 @@ def test_changed_scene_is_validated_and_stored_as_run(tmp_path):
 def test_run_refuses_to_overwrite(small_run):
     path, _ = small_run
     before = path.read_bytes()
-    with pytest.raises(mt.RunError, match="file exists"):
+    with pytest.raises(mt.RunError, match="file exists") as err:
         mt.run(mt.load_scene(overrides=SMALL), path)
+    # the API's own arguments, not the command line's flags
+    assert "overwrite=True" in str(err.value) and "--" not in str(err.value), err.value
     assert path.read_bytes() == before
 
 
@@ -173,7 +175,87 @@ def test_xarray_follows_a_running_file_and_reads_it_after_kill9(small_run, tmp_p
     after.close()
 
 
+def _users_own_readers(path):
+    """A user's own tools next to mt.open_run: plain h5py and xarray on the path, with
+    their default arguments (a running file may be caught mid-write: retried briefly)."""
+    import xarray as xr
+
+    for _ in range(40):
+        try:
+            f = h5py.File(path)
+            try:
+                x = xr.open_datatree(path, engine="h5netcdf")
+            except BaseException:
+                f.close()
+                raise
+            return f, x
+        except OSError as exc:
+            last = exc
+            time.sleep(0.05)
+    raise AssertionError(f"h5py.File / xr.open_datatree next to mt.open_run: {last}")
+
+
+def test_h5py_and_xarray_open_a_finished_file_held_by_open_run(small_run):
+    """HDF5 refuses a second open of a file held in the process with other locking flags
+    ("file locking flag values don't match"): open_run must take h5py's defaults."""
+    path, _ = small_run
+    with mt.open_run(path) as tree:
+        f, x = _users_own_readers(path)
+        with f, x:
+            np.testing.assert_array_equal(f["diagnostics/time"][:], tree["diagnostics"].time.values)
+            np.testing.assert_array_equal(x["snapshots"].x.values, tree["snapshots"].x.values)
+        with h5py.File(path, "r") as f, mt.open_run(path) as again:  # the other order
+            assert again["diagnostics"].sizes["time"] == f["diagnostics/time"].shape[0]
+
+
+def test_h5py_and_xarray_open_a_running_file_held_by_open_run(tmp_path):
+    overrides = ["--set", "shelf.count=100", "--set", "time.duration=200000", "--set", "output.snapshot_interval=200"]
+    p = subprocess.Popen([PY, "-m", "melange_ti", "run", "--out", "run.h5", *overrides], cwd=tmp_path, stderr=subprocess.PIPE)
+    path = tmp_path / "run.h5"
+    try:
+        seen, _ = follow(path, p.pid, budget=300.0)
+        assert p.poll() is None and seen, f"the run ended before the test could read it ({seen})"
+        with mt.open_run(path) as tree:
+            assert not tree.attrs["complete"]
+            f, x = _users_own_readers(path)
+            with f, x:
+                n = tree["snapshots"].sizes["time"]
+                assert f["snapshots/time"].shape[0] >= n and x["snapshots"].sizes["time"] >= n
+                np.testing.assert_array_equal(f["snapshots/x"][:n], tree["snapshots"].x.values)
+                with mt.open_run(path) as again:  # and open_run next to the user's handles
+                    assert again["snapshots"].sizes["time"] >= 1
+    finally:
+        p.kill()
+        p.wait(timeout=60)
+
+
 # ---------------------------------------------------------------- the sharp edges
+def test_compiling_is_said_only_when_it_is_and_timed_apart(tmp_path):
+    """With an empty Taichi cache the run says it is compiling (one line on stderr, no
+    terminal here) and reports that time apart from its steps/s; with the cache warm it
+    says nothing of compiling."""
+    import re
+
+    scene = {"scene": {"effects": ["gravity", "buoyancy", "drag"]}, "iceberg": [{"z": -0.55}, {"x": 3.0, "z": -0.55}]}
+    scene["time"] = {"duration": 50.0}
+    scene["output"] = {"snapshot_interval": 1.0}
+    (tmp_path / "s.toml").write_text(dumps_toml(scene))
+    env = {**os.environ, "TI_OFFLINE_CACHE_FILE_PATH": str(tmp_path / "ticache")}
+    said = []
+    for k in range(2):
+        proc = cli(["run", "s.toml", "--out", f"r{k}.h5"], tmp_path, env=env)
+        assert proc.returncode == 0, proc.stderr
+        said.append((proc.stderr, proc.stdout.splitlines()[0]))
+    (cold_err, cold), (warm_err, warm) = said
+    assert "melange-ti: compiling kernels" in cold_err and "compiling the kernels with the first" in cold, (cold_err, cold)
+    assert "compil" not in warm_err and "loading the kernels from the cache" in warm, (warm_err, warm)
+    m = re.search(r"in (\d+) steps, ([\d.]+) s wall: ([\d.]+) s .* then (\d+) steps at ([\d,]+) steps/s", cold)
+    assert m, cold
+    steps, wall, startup, rest, rate = int(m[1]), float(m[2]), float(m[3]), int(m[4]), float(m[5].replace(",", ""))
+    assert steps == 5000 and 0 < rest < steps and startup < wall
+    assert rate > 1.5 * steps / wall, "steps/s must leave the compiling out"
+
+
 def test_bench_never_overwrites_results(tmp_path):
     (tmp_path / "effects.csv").write_text("mine\n")
     proc = cli(["bench", "effects", "--quick", "--out", str(tmp_path)], tmp_path)
@@ -264,6 +346,27 @@ def test_default_output_name_carries_the_set_values(tmp_path):
     assert (tmp_path / "paper_seed1_count=3_duration=0.1.h5").exists(), os.listdir(tmp_path)
 
 
+def test_docs_name_the_default_output_the_cli_writes(tmp_path):
+    proc = cli(["run", "--set", "shelf.count=3", "--set", "time.duration=0.1"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    text = (ROOT / "docs" / "scenes.md").read_text()
+    assert "--set time.duration=1000 --set shelf.count=50` writes `paper_seed1_duration=1000_count=50.h5`" in text
+    assert "NAME_seedSEED.h5" in text and "paper_seed1.h5" in (ROOT / "README.md").read_text()
+
+
+def test_effects_list_on_the_command_line_and_in_the_docs(tmp_path):
+    from melange_ti.physics.effects import REGISTRY
+
+    proc = cli(["check", "--set", "scene.effects=gravity, buoyancy,drag", "--set", "shelf.count=3"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "effects gravity, buoyancy, drag," in proc.stdout, proc.stdout
+    assert "'nosuch'" in one_error(cli(["check", "--set", "scene.effects=gravity,nosuch"], tmp_path))
+    row = next(ln for ln in (ROOT / "docs" / "scenes.md").read_text().splitlines() if ln.startswith("| `effects` |"))
+    accepted = row.split("|")[4]
+    assert len(REGISTRY) == 7 and all(e.name in accepted for e in REGISTRY), row
+    assert 'effects = ["gravity", "buoyancy", "drag"]' in row and "--set scene.effects=gravity,buoyancy,drag" in row
+
+
 def test_released_has_one_meaning(small_run):
     """The summary's "released" is the potential energy released, as in summary.csv and the
     energy figure (stats.energy_budget); the mechanical energy lost is named apart."""
@@ -314,6 +417,31 @@ def test_readme_links_exist():
         if not link.startswith("http"):
             assert (ROOT / link).exists(), link
     assert "../shared" not in text
+
+
+def readme_blocks() -> list[tuple[str, str]]:
+    """The README's fenced code blocks, in order: (language, text)."""
+    import re
+
+    text = (ROOT / "README.md").read_text()
+    return re.findall(r"```(\w+)\n(.*?)```", text, flags=re.S)
+
+
+def test_readme_code_blocks_run_in_order(tmp_path):
+    """Every block of the README after the installation one (which installs, runs the whole
+    paper scene and the test suite: what .ci/run does), run as written, in order, in one
+    folder, as a new user would: each command succeeds and leaves what it says."""
+    blocks = readme_blocks()
+    assert "pip install" in blocks[0][1] and len(blocks) >= 3, blocks
+    env = {**os.environ, "PATH": f"{Path(PY).parent}{os.pathsep}{os.environ['PATH']}", "MPLBACKEND": "Agg"}
+    for lang, code in blocks[1:]:
+        assert lang in ("bash", "python"), lang
+        cmd = ["bash", "-e", "-c", code] if lang == "bash" else [PY, "-c", code]
+        p = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
+        assert p.returncode == 0, f"{lang} block failed:\n{code}\n{p.stdout[-2000:]}\n{p.stderr[-3000:]}"
+    for made in ("small.h5", "figs/fig3_capsized_fraction.png", "small.mp4", "ens/seed2.h5", "ens_figs/summary.csv"):
+        assert (tmp_path / made).exists(), made
+    assert (tmp_path / "from_python.h5").exists()
 
 
 def test_worked_example_runs(tmp_path):

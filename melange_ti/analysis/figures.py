@@ -38,7 +38,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..io.hdf5 import OutputError  # noqa: E402
+from ..diagnostics import ENERGY_LEDGERS  # noqa: E402
+from ..errors import RunError  # noqa: E402
+from ..io.hdf5 import OutputError, is_partial, read_run, stored_scene  # noqa: E402
 from ..scene import SceneError  # noqa: E402
 from . import stats  # noqa: E402
 from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners  # noqa: E402
@@ -296,14 +298,14 @@ def fig_snapshots(
 
 
 ENERGY_STYLE = {
-    "released": ("potential energy released E_p(0) − E_p(t)", "k", "-", 2.0),
-    "kinetic": ("kinetic energy E_k(t) − E_k(0)", "tab:orange", "-", 1.2),
+    "released": ("potential energy released", "k", "-", 2.0),
+    "kinetic": ("kinetic energy gained", "tab:orange", "-", 1.2),
     "drag": ("drag dissipated", "tab:blue", "-", 1.2),
     "collision": ("collision dissipated", "tab:red", "-", 1.2),
     "correction": ("overlap-correction work", "tab:purple", "-", 1.2),
     "impulse_offset": ("impulses' half-kick offset", "tab:green", ":", 1.2),
     "added_mass": ("added-mass exchange", "tab:brown", "-", 1.2),
-    "residual": ("residual E(0) − E(t) − Σ dissipated", "0.4", "--", 1.2),
+    "residual": ("residual: energy lost but not booked (the time integrator's error)", "0.4", "--", 1.2),
 }
 
 
@@ -393,7 +395,9 @@ def save(fig, out: Path, name: str) -> list[Path]:
 
 
 def summary_rows(groups: Sequence[Group]) -> list[dict]:
-    """Per group: runs, times of 50% / 90% mean capsized fraction, final leading edge and residual."""
+    """Per group: runs, times of 50% / 90% mean capsized fraction, final leading edge and the
+    energy residual, with the ledgers the runs' files hold (``budget``: a file written before
+    a ledger existed lacks it, and its residual then leaves that term in)."""
     rows = []
     for g in groups:
         frac = g.series("capsized_fraction")
@@ -414,15 +418,34 @@ def summary_rows(groups: Sequence[Group]) -> list[dict]:
                 "leading_edge_end_std": float(edge.std[-1]),
                 "energy_released_end": float(terms["released"].mean[-1]),
                 "energy_residual_end": float(terms["residual"].mean[-1]),
+                "budget": " + ".join(n for n in ENERGY_LEDGERS if all(n in r.diag for r in g.runs)),
             }
         )
     return rows
 
 
+# the columns of summary.csv (the bundled runs/*/summary.csv are checked against them)
+SUMMARY_COLUMNS = (
+    "group",
+    "runs",
+    "seeds",
+    "t_end",
+    "capsized_fraction_end",
+    "capsized_fraction_end_std",
+    "t_50",
+    "t_90",
+    "leading_edge_end",
+    "leading_edge_end_std",
+    "energy_released_end",
+    "energy_residual_end",
+    "budget",
+)
+
+
 def write_summary(rows: list[dict], path: Path) -> Path:
     try:
         with open(path, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            w = csv.DictWriter(fh, fieldnames=SUMMARY_COLUMNS)
             w.writeheader()
             for row in rows:
                 w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
@@ -494,10 +517,45 @@ def plot(
     return written
 
 
+def run_files(args: Sequence[str | Path]) -> list[Path]:
+    """The run files named: each folder stands for the ``*.h5`` files in it (sorted)."""
+    paths: list[Path] = []
+    for arg in map(Path, args):
+        if arg.is_dir():
+            found = sorted(p for p in arg.glob("*.h5") if p.is_file())
+            if not found:
+                raise OutputError(f"{arg}: a folder with no run files (*.h5) in it")
+            paths += found
+        else:
+            paths.append(arg)
+    return paths
+
+
+def refuse_overwrite(out: Path) -> None:
+    """``melange-ti plot`` never replaces figures already in ``out`` unless ``--overwrite``."""
+    ours = {f"{n}.{ext}" for n in FIGURES for ext in ("png", "pdf")} | {"summary.csv"}
+    there = sorted(p.name for p in out.iterdir() if p.name in ours) if out.is_dir() else []
+    if there:
+        raise RunError(
+            f"--out {str(out)!r}: holds {len(there)} files of an earlier plot, e.g. {there[0]} "
+            "(use --overwrite to replace them, or another --out)"
+        )
+
+
 def main(args) -> int:
     """Entry point of ``melange-ti plot``."""
-    written = plot(args.runs, args.out, times=parse_times(args.times), width_m=args.width_m)
+    paths = run_files(args.runs)
     out = Path(args.out)
+    if not args.overwrite:
+        refuse_overwrite(out)
+    for path in paths:
+        if is_partial(path):
+            data = read_run(path)
+            end = stored_scene(path, data).time.duration
+            t = data["diagnostics"]["time"]
+            upto = f"t = {t[-1]:g}" if len(t) else "no diagnostics"
+            print(f"note: {path} is a partial run (stopped, or still running): up to {upto} of {end:g}")
+    written = plot(paths, args.out, times=parse_times(args.times), width_m=args.width_m)
     with open(out / "summary.csv") as fh:
         rows = list(csv.DictReader(fh))
     for row in rows:

@@ -6,12 +6,16 @@ file cut short by ``kill -9``) can trust the shortest consistent length:
 SWMR: with the HDF5 2.x library a file opened with ``libver="latest"`` for writing keeps a
 status flag in its superblock after a kill, and plain ``h5py.File(path)`` then refuses it.
 The writer opens the file without HDF5's file lock, so a reader can open the running file
-at any time with ``h5py.File(path, "r", locking=False)`` (what :func:`read_run` does) and
-sees every row up to the writer's last flush.
+at any time with plain ``h5py.File(path, "r")`` and sees every row up to the writer's last
+flush. Every reader here opens with h5py's default locking (no ``locking`` argument): HDF5
+refuses a second open of a file that this process holds with other locking flags ("file
+locking flag values don't match"), so a user's own ``h5py.File(path)`` must be able to sit
+next to ours.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 from pathlib import Path
@@ -249,15 +253,30 @@ def consistent_length(group: h5py.Group) -> int:
 def consistent_lengths(path: str | Path, complete: bool = False):
     """``{"snapshots": S, "diagnostics": D}``: the rows every dataset of each group holds;
     with ``complete``, also whether the run finished (its ``complete`` attribute)."""
+    with _reading(path) as f:
+        lengths = {group: consistent_length(f[group]) for group in ("snapshots", "diagnostics")}
+        return (lengths, bool(f.attrs.get("complete", False))) if complete else lengths
+
+
+@contextlib.contextmanager
+def _reading(path: str | Path):
+    """The run file open for reading (h5py's default locking, see the module's docstring);
+    a missing or unreadable file is a one-line :class:`OutputError`."""
     path = Path(path)
     try:
-        with h5py.File(path, "r", locking=False) as f:
-            lengths = {group: consistent_length(f[group]) for group in ("snapshots", "diagnostics")}
-            return (lengths, bool(f.attrs.get("complete", False))) if complete else lengths
+        with h5py.File(path, "r") as f:
+            yield f
     except FileNotFoundError:
         raise OutputError(f"{path}: not found") from None
     except (OSError, KeyError, ValueError, RuntimeError) as exc:
         raise OutputError(f"{path}: not a readable melange_ti run file ({str(exc).splitlines()[0]})") from None
+
+
+def is_partial(path: str | Path) -> bool:
+    """Whether the run file says its run has not finished (stopped, or still running); a
+    file without the ``complete`` attribute (hand-made) counts as finished."""
+    with _reading(path) as f:
+        return "complete" in f.attrs and not bool(f.attrs["complete"])
 
 
 def read_run(path: str | Path) -> dict:
@@ -266,18 +285,12 @@ def read_run(path: str | Path) -> dict:
     Returns ``{"attrs": {...}, "icebergs": {...}, "snapshots": {...}, "diagnostics": {...}}``.
     Raises :class:`OutputError` with one line for a file that is not a readable run.
     """
-    path = Path(path)
-    try:
-        with h5py.File(path, "r", locking=False) as f:
-            out = {"attrs": {k: _plain(v) for k, v in f.attrs.items()}}
-            for group in ("icebergs", "snapshots", "diagnostics"):
-                g = f[group]
-                n = consistent_length(g) if group != "icebergs" else None
-                out[group] = {k: (ds[:n] if n is not None else ds[:]) for k, ds in g.items()}
-    except FileNotFoundError:
-        raise OutputError(f"{path}: not found") from None
-    except (OSError, KeyError, ValueError, RuntimeError) as exc:
-        raise OutputError(f"{path}: not a readable melange_ti run file ({str(exc).splitlines()[0]})") from None
+    with _reading(path) as f:
+        out = {"attrs": {k: _plain(v) for k, v in f.attrs.items()}}
+        for group in ("icebergs", "snapshots", "diagnostics"):
+            g = f[group]
+            n = consistent_length(g) if group != "icebergs" else None
+            out[group] = {k: (ds[:n] if n is not None else ds[:]) for k, ds in g.items()}
     return out
 
 

@@ -275,6 +275,10 @@ def _set_path(doc: dict, key: str, value: Any) -> None:
     table = doc.setdefault(section, {})
     if not isinstance(table, dict):
         raise error(section, table, "must be a table")
+    known = next((k for k in K.SECTIONS[section] if k.name == name), None)
+    if known is not None and isinstance(known.default, list) and isinstance(value, str):
+        # a list key given as a bare a,b,c (as --set contacts.discs=12,28,60 lists values)
+        value = [v.strip() for v in value.split(",") if v.strip()]
     table[name] = value
 
 

@@ -13,14 +13,15 @@ import math
 from ..physics.effects import REGISTRY, Key
 
 SCENE = (
-    Key("name", "scene", "", "a name for the run; the default output file is NAME_seedSEED.h5"),
+    Key("name", "scene", "", "a name for the run; it starts the default output file's name (docs/scenes.md, Output name)"),
     Key(
         "effects",
         ["gravity", "buoyancy", "drag", "collisions", "wall"],
         "",
-        "the physical terms simulated (see the effects table); an effect not named costs nothing",
+        "the physical terms simulated (see the effects table); an effect not named costs nothing. In TOML "
+        '`effects = ["gravity", "buoyancy", "drag"]`; on the command line `--set scene.effects=gravity,buoyancy,drag`',
         None,
-        "must be a list of: gravity, buoyancy, drag, collisions, wall",
+        f"must be a list of: {', '.join(e.name for e in REGISTRY)}",
     ),
     Key("precision", "f64", "", "floating point of the state and the kernels", None, 'must be "f64" or "f32"'),
     Key(
