@@ -23,8 +23,8 @@ from matplotlib.colors import Normalize  # noqa: E402
 from .. import diagnostics as diag  # noqa: E402
 from ..errors import RunError  # noqa: E402
 from ..geometry import disc_local  # noqa: E402
-from ..io.hdf5 import OutputError, read_run, stored_scene  # noqa: E402
-from ..scene import Scene, SceneError  # noqa: E402
+from ..io.hdf5 import OutputError, read_run  # noqa: E402
+from ..scene import Scene, SceneError, stored_scene  # noqa: E402
 
 G_SI = 9.81  # m s^-2
 CMAP = "plasma"

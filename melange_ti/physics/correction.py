@@ -11,10 +11,10 @@ energy the pushes add is booked per moved body (``Acc.CORRECTION``, ``correction
 
 import taichi as ti
 
-from .effects import wall
 from .forces import contact_mass, potential_energy
 from .impulses import normal_speed
 from .schema import Acc, Body, BodyInt, Contact, Param
+from .terms import wall
 
 MAX_CORRECT = 4  # correction sweeps while some overlap is still being pushed apart
 

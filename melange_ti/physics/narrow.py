@@ -23,8 +23,8 @@ import taichi as ti
 
 from .broad import cell_size, margin, reach
 from .contacts import face_line, line_window
-from .effects import wall
 from .schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Param
+from .terms import wall
 
 # Candidate lists: partners kept per body, disc pairs kept per partner, and the skin (a
 # fraction of the smaller disc radius) added to the touching distance.

@@ -38,9 +38,8 @@ from __future__ import annotations
 import dataclasses
 from typing import NamedTuple
 
-from .columns import Acc, Body, BodyInt, Cell, Column, Config, Contact, Counter, ListPose, Param, Scratch, Table
+from .columns import Acc, Body, BodyInt, Cell, Column, Config, Contact, Counter, E, ListPose, Param, Scratch, Table
 
-E = "rho_w g w^3"  # energy per unit length into the page (g = rho_w = w = 1)
 LINE_COLUMNS = 8  # 64-byte cache line of f64 columns
 
 
@@ -87,10 +86,7 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
         spare += 1
         line2.append(Column(f"SPARE_{spare}", "scratch", "1", "unused: keeps the effects beyond the paper on their own line"))
     # cache lines follow from the position (8 f64 columns a line)
-    cols = [
-        Column(c.name, c.role, c.units, c.doc, c.output, k // LINE_COLUMNS, owner=c.owner)
-        for k, c in enumerate((*line0, *line1, *line2, *beyond))
-    ]
+    cols = [dataclasses.replace(c, line=k // LINE_COLUMNS) for k, c in enumerate((*line0, *line1, *line2, *beyond))]
     width = -(-len(cols) // LINE_COLUMNS) * LINE_COLUMNS
     return Table(
         "bodies",
@@ -230,13 +226,21 @@ ACCUMULATORS = Table(
     "(Acc.SIZE,)",
     "run-wide cumulative sums since t = 0, in f64 whatever the precision",
     (
-        Column("COLLISION", "ledger", E, "energy removed by impulses, 0.5 (1 - e^2) vn^2 / K each", "collision_dissipated"),
+        Column(
+            "COLLISION",
+            "ledger",
+            E,
+            "energy removed by impulses, 0.5 (1 - e^2) vn^2 / K each",
+            "collision_dissipated",
+            budget=True,
+        ),
         Column(
             "CORRECTION",
             "ledger",
             E,
             "energy removed by overlap corrections (minus the potential energy they add)",
             "correction_work",
+            budget=True,
         ),
         Column(
             "OFFSET",
@@ -245,6 +249,8 @@ ACCUMULATORS = Table(
             "energy the impulses remove beyond their own dissipation because they act half a kick after the "
             "time the energy is taken at, J dv_kick / 2 each (-> 0 as dt -> 0)",
             "impulse_offset_work",
+            budget=True,
+            since=3,
         ),
         Column("WALL_IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of impulses from the wall", "wall_impulse"),
         Column("IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of all impulses", "impulse_sum"),
@@ -328,5 +334,5 @@ assert sorted(BODIES.outputs("state")) == sorted(STATE_NAMES)
 CONSTANTS = tuple(BODIES.outputs("constant"))  # /icebergs: width, thickness, mass, inertia
 BODY_LEDGERS = BODIES.outputs("ledger")  # per-body ledgers, summed into a diagnostic
 ACC_LEDGERS = ACCUMULATORS.outputs("ledger")
-# energy ledgers close the budget: E(0) - E(t) = their sum
-ENERGY_LEDGERS = tuple(c.output for t in (BODIES, ACCUMULATORS) for c in t.with_role("ledger") if c.units == E)
+# energy ledgers close the budget: E(0) - E(t) = their sum (marked ``budget`` in the tables)
+ENERGY_LEDGERS = tuple(c.output for t in (BODIES, ACCUMULATORS) for c in t.columns if c.budget)

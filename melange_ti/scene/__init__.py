@@ -22,6 +22,7 @@ from .core import (
     parse_overrides,
 )
 from .initial import equilibrium_z
+from .stored import stored_scene
 from .toml import dumps_toml, parse_value
 
 __all__ = [
@@ -47,4 +48,5 @@ __all__ = [
     "loads",
     "parse_overrides",
     "parse_value",
+    "stored_scene",
 ]

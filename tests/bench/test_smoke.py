@@ -3,7 +3,10 @@
 Each subcommand runs in its own process (the benchmarks initialise Taichi themselves, and the
 accuracy benchmark starts f64 and f32 worker processes), all four at once, into a temporary
 directory; the tests check the CSV columns and that the PNG files exist. Benchmarks never
-assert a speed: only that the timings are finite and positive.
+assert a speed: only that the timings are finite and positive. The four runs start four
+Taichi processes at once (and the accuracy benchmark more), so they are marked ``bench``
+and left out of the default suite: run them with ``python -m pytest -m bench`` (the
+helpers' tests below run by default).
 """
 
 from __future__ import annotations
@@ -64,6 +67,7 @@ def _positive(rows: list[dict], key: str) -> None:
         assert math.isfinite(v) and v > 0, (key, r)
 
 
+@pytest.mark.bench
 @pytest.mark.parametrize("which", WHICH)
 def test_quick_run_writes_csv_and_png(quick_runs, which):
     out, done = quick_runs
@@ -76,6 +80,7 @@ def test_quick_run_writes_csv_and_png(quick_runs, which):
     assert png.exists() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000
 
 
+@pytest.mark.bench
 def test_quick_scaling_content(quick_runs):
     out, done = quick_runs
     assert done["scaling"][0] == 0
@@ -88,6 +93,7 @@ def test_quick_scaling_content(quick_runs):
     assert any(f["quantity"] == "ms_per_step" and math.isfinite(float(f["exponent"])) for f in fits)
 
 
+@pytest.mark.bench
 def test_quick_accuracy_content(quick_runs):
     out, done = quick_runs
     assert done["accuracy"][0] == 0, done["accuracy"][1][-3000:]
@@ -105,6 +111,7 @@ def test_quick_accuracy_content(quick_runs):
     assert (out / "accuracy_curves.csv").exists()
 
 
+@pytest.mark.bench
 def test_quick_effects_content(quick_runs):
     out, done = quick_runs
     assert done["effects"][0] == 0
@@ -113,6 +120,7 @@ def test_quick_effects_content(quick_runs):
     _positive(rows, "ms_per_step")
 
 
+@pytest.mark.bench
 def test_quick_peers_content(quick_runs):
     out, done = quick_runs
     assert done["peers"][0] == 0
