@@ -63,6 +63,21 @@ class PymunkMelange:
     from :meth:`melange_ti.scene.Scene.icebergs` or a melange_ti model's state.
     """
 
+    @classmethod
+    def for_scene(cls, state: dict, scene) -> PymunkMelange:
+        """The peer of a melange_ti ``scene`` (its physics and dt), from ``state``."""
+        p = scene.physics
+        return cls(
+            state,
+            density_ratio=p.density_ratio,
+            restitution=p.restitution,
+            drag=p.drag,
+            angular_drag=p.angular_drag,
+            water_level=p.water_level,
+            wall_x=p.wall_x,
+            dt=scene.time.dt,
+        )
+
     def __init__(
         self,
         state: dict,
@@ -220,7 +235,6 @@ def run(out: Path, o: Options) -> int:
     rows = []
     for n in sizes:
         sc = paper_scene(n)
-        p = sc.physics
         steps = steps_for(n, o.quick, o.steps)
         psteps = steps_for(n, o.quick, o.steps, work=2e5, hi=500)
         warm = 5 if o.quick else max(10, steps // 10)
@@ -243,16 +257,7 @@ def run(out: Path, o: Options) -> int:
                 }
             )
             if peer:
-                sim = PymunkMelange(
-                    st,
-                    density_ratio=p.density_ratio,
-                    restitution=p.restitution,
-                    drag=p.drag,
-                    angular_drag=p.angular_drag,
-                    water_level=p.water_level,
-                    wall_x=p.wall_x,
-                    dt=sc.time.dt,
-                )
+                sim = PymunkMelange.for_scene(st, sc)
                 sim.advance(warm)
                 per = []
                 for _ in range(repeats):
