@@ -19,10 +19,10 @@ import pytest
 
 from melange_ti import scene as scene_mod
 from melange_ti.model import Model
-from melange_ti.scene import dumps_toml
+from melange_ti.scene import DENSITY_RATIO, dumps_toml
 
 STEPS = 2000
-R = 0.8946
+R = DENSITY_RATIO
 
 
 def scene_text() -> str:

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..geometry import potential_energy, submerged_moments  # noqa: F401 (re-exported)
+from ..scene.keys import DENSITY_RATIO
 from .common import (
     Options,
     evolved_block,
@@ -81,7 +82,7 @@ class PymunkMelange:
     def __init__(
         self,
         state: dict,
-        density_ratio: float = 0.8946,
+        density_ratio: float = DENSITY_RATIO,
         restitution: float = 0.5,
         drag: float = 0.01,
         angular_drag: float = 0.01,

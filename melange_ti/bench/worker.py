@@ -34,9 +34,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ContactOverflow
+from ..scene.keys import DENSITY_RATIO
 from .common import STATE, dt_overrides, paper_scene, sync
 
-R_DEFAULT = 0.8946
+R_DEFAULT = DENSITY_RATIO
 
 
 def _energy(sample: dict, index=None) -> float:

@@ -13,6 +13,7 @@ import taichi as ti
 
 from .forces import contact_mass, potential_energy
 from .impulses import normal_speed
+from .numerics import TINY
 from .schema import Acc, Body, BodyInt, Contact, Param
 from .terms import wall
 
@@ -52,7 +53,7 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end, eager:
     else:
         g = wall.gap(a, i)
     pushed = 0
-    if g < -1e-12:
+    if g < -TINY:
         pushed = 1
         depth = -g
         if ti.static(not eager):

@@ -9,6 +9,8 @@ segment from the exit to the entry crossing closes the polygon. Units: widths, g
 
 import taichi as ti
 
+from .numerics import FAR
+
 
 @ti.func
 def _segment(px, pz, qx, qz):
@@ -84,8 +86,8 @@ def wetted(z, c, s, hw, hh, water_level, ux, uz):
     level = water_level - z
     area = 0.0
     second = ti.Vector([0.0, 0.0])
-    lo = 1e30
-    hi = -1e30
+    lo = FAR
+    hi = -FAR
     r3 = 0.0
     exit_pt = ti.Vector([0.0, 0.0])
     entry_pt = ti.Vector([0.0, 0.0])

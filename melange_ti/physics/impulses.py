@@ -17,7 +17,7 @@ reach it was searched with (a struck iceberg in a packed row), detection runs ag
 import taichi as ti
 
 from .broad import outran
-from .contacts import cross2
+from .discs import cross2
 from .forces import contact_mass
 from .schema import Acc, Body, BodyInt, Config, Contact, Counter, Param
 

@@ -23,6 +23,7 @@ import pytest
 
 from melange_ti.bench import accuracy, common, effects, scaling
 from melange_ti.bench.peers import PEERS_COLUMNS, have_pymunk, potential_energy, submerged_moments
+from melange_ti.scene import DENSITY_RATIO
 
 WHICH = ("scaling", "accuracy", "effects", "peers")
 COLUMNS = {"accuracy": accuracy.ACCURACY_COLUMNS, "effects": effects.EFFECTS_COLUMNS, "peers": PEERS_COLUMNS}
@@ -135,7 +136,7 @@ def test_quick_peers_content(quick_runs):
 
 # ---------------------------------------------------------------------------- helpers, no Taichi
 def test_numpy_hydrostatics_against_closed_forms():
-    r = 0.8946
+    r = DENSITY_RATIO
     z_up = -r * 1.4 + 0.7  # upright 1 x 1.4 in equilibrium: draft r h
     a, sx, _ = submerged_moments(np.array([z_up, -10.0, 10.0]), np.array([0.0, 0.3, 0.3]), 0.5, 0.7)
     assert a == pytest.approx([r * 1.4, 1.4, 0.0], abs=1e-12)
@@ -178,7 +179,7 @@ def test_pareto_fit_and_tile():
 def test_pymunk_peer_floats_in_equilibrium():
     from melange_ti.bench.peers import PymunkMelange
 
-    r = 0.8946
+    r = DENSITY_RATIO
     z_eq = -r * 1.0 + 0.5  # the 1.4 x 1 block lying flat: stable
     st = {k: np.zeros(1) for k in ("x", "theta", "vx", "vz", "omega")}
     st.update(z=np.array([z_eq]), width=np.array([1.4]), thickness=np.array([1.0]))

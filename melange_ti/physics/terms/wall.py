@@ -6,7 +6,8 @@ import taichi as ti
 
 from ..broad import margin, reach
 from ..columns import Body, BodyInt, Config, Param
-from ..contacts import disc_local, to_world
+from ..discs import disc_local, to_world
+from ..numerics import FAR
 
 
 @ti.func
@@ -16,7 +17,7 @@ def gap(a: ti.template(), i):
     k = ti.cast(a.cfg[Config.K], ti.i32)
     c, s = b[i, Body.COS], b[i, Body.SIN]
     hw, hh, r = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], b[i, Body.RADIUS]
-    g = 1e30
+    g = FAR
     for d in range(ti.cast(a.cfg[Config.DISCS], ti.i32)):
         pa = to_world(disc_local(d, k, hw, hh, r), b[i, Body.X], b[i, Body.Z], c, s)
         g = ti.min(g, pa[0] - r - a.par[Param.WALL_X])
@@ -41,7 +42,7 @@ def detect(a: ti.template(), i):
         pz = 0.0
         wsum2 = 0.0
         pz2 = 0.0
-        g_min = 1e30
+        g_min = FAR
         for d in range(ti.cast(a.cfg[Config.DISCS], ti.i32)):
             pa = to_world(disc_local(d, k, hw, hh, r), b[i, Body.X], b[i, Body.Z], c, s)
             g = pa[0] - r - wall_x
