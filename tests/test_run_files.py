@@ -68,6 +68,7 @@ assert stored_scene(path, data).shelf.count == 4
 with mt.open_run(path) as tree:
     assert tree["diagnostics"]["capsized_fraction"].size == data["diagnostics"]["time"].size
 assert cli.main(["plot", path, "--out", figures]) == 0
+assert cli.main(["render", path, "--out", figures + "_frames"]) == 0
 assert "taichi" not in sys.modules, "Taichi was imported"
 print("read without Taichi")
 """
@@ -80,7 +81,7 @@ def test_reading_and_plotting_import_no_taichi(tmp_path):
     )
     assert proc.returncode == 0, proc.stderr
     assert "read without Taichi" in proc.stdout
-    assert any((tmp_path / "figures").glob("*.png"))
+    assert any((tmp_path / "figures").glob("*.png")) and any((tmp_path / "figures_frames").glob("*.png"))
 
 
 def test_run_begun_from_another_file_survives_moving_it(tmp_path):

@@ -38,10 +38,10 @@ from .common import (
     evolved_block,
     init,
     initial_state,
-    log_limits,
     paper_scene,
     print_table,
     pyplot,
+    save_ms_bars,
     steps_for,
     tile,
     time_advance,
@@ -318,11 +318,4 @@ def _plot(rows: list[dict], path: Path) -> None:
             text = f"{v:.3g}" if eng == "melange_ti" else f"{v:.3g}\n(x{ratio:.2g})"
             ax.annotate(text, (b.get_x() + b.get_width() / 2, v), ha="center", va="bottom", fontsize=8)
     ax.set_xticks(np.arange(len(groups)), [f"N = {n:,}\n{s}" for n, s in groups])
-    ax.set_yscale("log")
-    log_limits(ax, [r["ms_per_step"] for r in rows])
-    ax.set_ylabel("wall ms per step")
-    ax.set_title("paper scene: melange_ti vs pymunk + numpy buoyancy/drag")
-    ax.legend()
-    ax.grid(True, axis="y", which="both", alpha=0.3)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_ms_bars(plt, fig, ax, rows, "paper scene: melange_ti vs pymunk + numpy buoyancy/drag", path)

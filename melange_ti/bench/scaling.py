@@ -57,12 +57,12 @@ def columns() -> list[str]:
 def time_output(model, sc, repeats: int) -> dict[str, float]:
     """Cost of output: ``sample()`` and one HDF5 snapshot (RunWriter), and per step amortised
     over the scene's diagnostic and snapshot intervals."""
-    from ..io.hdf5 import RunWriter
+    from ..io.hdf5 import SCENE_ATTR, RunWriter
 
     dtype = np.float32 if sc.precision == "f32" else np.float64
     t_sample, t_write = [], []
     with tempfile.TemporaryDirectory() as d:
-        writer = RunWriter(Path(d) / "bench.h5", {"scene_toml": sc.to_toml()}, model.constants(), dtype)
+        writer = RunWriter(Path(d) / "bench.h5", {SCENE_ATTR: sc.to_toml()}, model.constants(), dtype)
         try:
             writer.snapshot(-1.0, model.sample())  # the first sample() compiles its kernel
             for k in range(max(2, repeats)):

@@ -39,6 +39,7 @@ import dataclasses
 from typing import NamedTuple
 
 from .columns import Acc, Body, BodyInt, Cell, Column, Config, Contact, Counter, E, ListPose, Param, Scratch, Table
+from .effects import REGISTRY
 
 LINE_COLUMNS = 8  # 64-byte cache line of f64 columns
 
@@ -291,8 +292,6 @@ class Arrays(NamedTuple):
 
 
 def _build():
-    from .effects import REGISTRY
-
     def owned(e):
         return tuple(dataclasses.replace(c, owner=e.name) for c in e.body_columns)
 
