@@ -17,7 +17,7 @@ class Event(NamedTuple):
     t: float  # time of the event
     sample: dict[str, np.ndarray]  # Model.sample(): state, per-body ledgers, kinetic, potential, (N,)
     totals: Any  # Model.Totals of the same instant (run-wide ledgers and the impulse count)
-    previous: Any  # totals at the previous diagnostic: t, contacts, wall_impulse, impulse_sum
+    previous: Any  # totals at the previous diagnostic: t, impulses, wall_impulse, impulse_sum
     x0_max: float  # max_i x_i(0)
 
     def rate(self, name: str) -> float:
@@ -79,7 +79,7 @@ FIELDS: tuple[Field, ...] = (
         "i8",
         "1",
         "impulses applied since the previous diagnostic",
-        lambda e: e.totals.contacts - e.previous.contacts,
+        lambda e: e.totals.impulses - e.previous.impulses,
         since=3,
     ),
     Field(

@@ -75,7 +75,7 @@ class Totals:
     impulse_offset_work: float
     wall_impulse: float
     impulse_sum: float
-    contacts: int
+    impulses: int
 
 
 def _scene_value(scene: Scene, key: str) -> float:
@@ -246,7 +246,7 @@ class Model:
 
     @staticmethod
     def _totals(acc: np.ndarray, cnt: np.ndarray) -> Totals:
-        return Totals(**{name: float(acc[k]) for name, k in ACC_LEDGERS.items()}, contacts=int(cnt[Counter.CONTACTS]))
+        return Totals(**{name: float(acc[k]) for name, k in ACC_LEDGERS.items()}, impulses=int(cnt[Counter.IMPULSES]))
 
     def accumulators(self) -> dict[str, np.ndarray]:
         """Everything cumulative besides the state (for checkpoints): the per-body ledgers

@@ -127,17 +127,17 @@ class _Counters:
     """Cumulative totals at the previous diagnostic (rates are differences of these)."""
 
     t: float = 0.0
-    contacts: int = 0
+    impulses: int = 0
     wall_impulse: float = 0.0
     impulse_sum: float = 0.0
 
     def save(self) -> dict:
-        return {"counters": np.array([self.t, self.wall_impulse, self.impulse_sum]), "counter_contacts": self.contacts}
+        return {"counters": np.array([self.t, self.wall_impulse, self.impulse_sum]), "counter_contacts": self.impulses}
 
     @classmethod
     def load(cls, ck: dict) -> _Counters:
         t, wall, imp = (float(v) for v in ck["counters"])
-        return cls(t=t, contacts=int(ck["counter_contacts"]), wall_impulse=wall, impulse_sum=imp)
+        return cls(t=t, impulses=int(ck["counter_contacts"]), wall_impulse=wall, impulse_sum=imp)
 
 
 class Diagnostics:
@@ -157,7 +157,7 @@ class Diagnostics:
         tot = sim.totals  # fetched with the sample
         c = self.counters
         row = diag.row(diag.Event(t, s, tot, c, sim.x0_max))  # each field computed as diag.FIELDS declares
-        c.t, c.contacts, c.wall_impulse, c.impulse_sum = t, tot.contacts, tot.wall_impulse, tot.impulse_sum
+        c.t, c.impulses, c.wall_impulse, c.impulse_sum = t, tot.impulses, tot.wall_impulse, tot.impulse_sum
         self.last, self.last_step = row, step
         sim.writer.diagnostic(row)
 

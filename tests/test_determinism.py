@@ -73,7 +73,7 @@ def test_scene_is_not_trivial(serial_result):
     from melange_ti.diagnostics import capsized_fraction
 
     s, tot = serial_result
-    assert tot.contacts > 200 and tot.wall_impulse > 0 and capsized_fraction(s["theta"]) > 0
+    assert tot.impulses > 200 and tot.wall_impulse > 0 and capsized_fraction(s["theta"]) > 0
 
 
 from melange_ti.physics.schema import STATE_NAMES as STATE  # noqa: E402

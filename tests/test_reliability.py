@@ -653,7 +653,7 @@ for mode in ("serial", "parallel"):
     tot = m.totals()
     out[mode] = {
         "finite": bool(all(np.all(np.isfinite(v)) for v in s.values())),
-        "contacts": tot.contacts,
+        "contacts": tot.impulses,
         "state": {k: s[k].tolist() for k in ("x", "z", "theta", "vx", "vz", "omega")},
     }
 crowd = scn.loads(CROWD)

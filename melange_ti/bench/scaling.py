@@ -116,9 +116,9 @@ def run(out: Path, o: Options) -> int:
         for state_name, st in (("initial", initial_state(sc)), ("active", tile(block_state, n))):
             auto.set_state(st)
             auto.advance(warm)  # compiles on first use
-            c0 = auto.totals().contacts
+            c0 = auto.totals().impulses
             s_step = time_advance(auto, steps, repeats)
-            imp = (auto.totals().contacts - c0) / (steps * repeats)
+            imp = (auto.totals().impulses - c0) / (steps * repeats)
             by_mode = {auto.mode: s_step, other_mode: float("nan")}
             if other is not None:
                 other.set_state(st)

@@ -96,7 +96,7 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
             a.acc[Acc.COLLISION] += dissipated
             a.acc[Acc.OFFSET] += 0.5 * jn * kick_vn
             a.acc[Acc.IMPULSE] += jn
-        a.cnt[Counter.CONTACTS] += 1
+        a.cnt[Counter.IMPULSES] += 1
 
 
 @ti.func

@@ -212,7 +212,7 @@ COUNTERS = Table(
     "(Counter.SIZE,)",
     "integer counters and flags",
     (
-        Column("CONTACTS", "counter", "1", "impulses applied since t = 0", "contacts"),
+        Column("IMPULSES", "counter", "1", "impulses applied since t = 0 (per interval: the diagnostic contacts)", "contacts"),
         Column("OVERFLOW", "counter", "1", "1 if a body had more partners than slots"),
         Column("AGAIN", "counter", "1", "after an impulse pass: 2 detect again, 1 pass again, 0 done"),
         Column("ISLANDS", "counter", "1", "islands of the last detection (parallel form)"),
