@@ -7,6 +7,7 @@ file's snapshot (``[start]``) is plotted and resumed from its own file after tha
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -25,6 +26,7 @@ SECTIONS = {
     "output": {"snapshot_interval": 0.5, "diagnostic_interval": 0.1, "checkpoint_interval": 1.0},
 }
 SHELF = {"count": 4, "width": 1.0, "thickness": 1.4, "gap": 0.1, "tilt": 0.01}
+THREADS = os.environ.get("MELANGE_TEST_THREADS", "2")  # the session's: --threads would re-initialise Taichi otherwise
 
 
 class _Stop(Exception):
@@ -93,7 +95,7 @@ def test_run_begun_from_another_file_survives_moving_it(tmp_path):
     first.rename(tmp_path / "moved.h5")
 
     assert cli.main(["plot", str(cut), "--out", str(tmp_path / "figures")]) == 0
-    assert cli.main(["run", "--resume", "--out", str(cut), "--threads", "1"]) == 0
+    assert cli.main(["run", "--resume", "--out", str(cut), "--threads", THREADS]) == 0
     with h5py.File(reference, "r") as fr, h5py.File(cut, "r") as fc:
         for group in ("icebergs", "snapshots", "diagnostics"):
             for name in fr[group]:
