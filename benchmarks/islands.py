@@ -62,8 +62,9 @@ def describe(model, label: str, t: float) -> dict:
 
 
 def from_run(path: Path, times: list[float]) -> list[dict]:
-    from melange_ti.io.hdf5 import read_run, stored_scene
+    from melange_ti.io.hdf5 import read_run
     from melange_ti.model import Model
+    from melange_ti.scene import stored_scene
 
     data = read_run(path)
     sc = stored_scene(path, data)

@@ -37,14 +37,15 @@ def load_scene(path: str | Path | None = None, overrides: Mapping[str, Any] | No
     return scene.load(path, list((overrides or {}).items()))
 
 
-def validated(scene: Scene) -> Scene:
+def validated(scene: Scene, geometry: bool = True) -> Scene:
     """``scene`` checked again as if read from a file (e.g. after :func:`dataclasses.replace`),
-    so what runs and what the output stores are the same text."""
+    so what runs and what the output stores are the same text; ``geometry=False`` skips the
+    initial state's checks (for a resumed run, whose ``[start]`` file may have moved)."""
     from . import scene as scn
 
     if not isinstance(scene, Scene):
         raise SceneError(f"scene = {type(scene).__name__}: must be a melange_ti Scene (see load_scene)")
-    return scn.loads(scene.to_toml())
+    return scn.loads(scene.to_toml(), geometry=geometry)
 
 
 def run(
@@ -66,7 +67,7 @@ def run(
     from . import runtime
     from .simulation import Simulation
 
-    scene = validated(scene)
+    scene = validated(scene, geometry=not resume)
     sim = Simulation(
         scene, out, overwrite=overwrite, resume=resume, arch=arch, progress=progress, history="melange_ti.run()", interface="api"
     )

@@ -140,7 +140,6 @@ def default_out(sc, overrides: list[tuple[str, object]]) -> Path:
 def _resume_scene(args, overrides):
     """With --resume the run file's own scene; SCENE and --set, if given, must match it."""
     from . import scene
-    from .io.hdf5 import read_run, stored_scene
 
     if not args.out:
         raise scene.SceneError("--resume: give --out RUN.h5, the file to continue")
@@ -149,7 +148,7 @@ def _resume_scene(args, overrides):
         from .errors import RunError
 
         raise RunError(f"--resume: {out} does not exist")
-    stored = stored_scene(out, read_run(out))
+    stored = scene.stored_scene(out)
     if args.scene is not None or overrides:
         given = scene.load(args.scene, overrides)
         if given.to_toml() != stored.to_toml():

@@ -1,22 +1,42 @@
-"""Diagnostics: the scalar time series of a run (:data:`FIELDS`), and pure numpy functions
-of the state (docs/model.md, docs/output.md)."""
+"""Diagnostics: the scalar time series of a run (:data:`FIELDS`, each with its computation),
+and pure numpy functions of the state (docs/model.md, docs/output.md)."""
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from .physics.schema import ACCUMULATORS, BODIES, ENERGY_LEDGERS, E
 
 
+class Event(NamedTuple):
+    """What the diagnostics of one output event are computed from."""
+
+    t: float  # time of the event
+    sample: dict[str, np.ndarray]  # Model.sample(): state, per-body ledgers, kinetic, potential, (N,)
+    totals: Any  # Model.Totals of the same instant (run-wide ledgers and the impulse count)
+    previous: Any  # totals at the previous diagnostic: t, impulses, wall_impulse, impulse_sum
+    x0_max: float  # max_i x_i(0)
+
+    def rate(self, name: str) -> float:
+        """Change of the run-wide total ``name`` per unit time since the previous diagnostic."""
+        span = self.t - self.previous.t
+        return (getattr(self.totals, name) - getattr(self.previous, name)) / span if span > 0 else 0.0
+
+
 class Field(NamedTuple):
-    """One diagnostic: name, dtype, units and meaning."""
+    """One diagnostic: name, dtype, units, meaning, how it is computed from an :class:`Event`,
+    and the run-file format version that first holds it (``since``: plotting reads older
+    files without it, so adding a field with the next version breaks no older file)."""
 
     name: str
     dtype: str
     units: str
     long_name: str
+    compute: Callable[[Event], float]
+    since: int = 1
 
 
 def _ledger_fields() -> tuple[Field, ...]:
@@ -24,20 +44,78 @@ def _ledger_fields() -> tuple[Field, ...]:
     summed over the icebergs, then the run-wide ones): a ledger column added by an effect
     appears here with no other edit."""
     cols = {c.output: c for t in (BODIES, ACCUMULATORS) for c in t.columns if c.output}
-    return tuple(Field(name, "f8", cols[name].units, cols[name].doc) for name in ENERGY_LEDGERS)
+    per_body = set(BODIES.outputs("ledger"))
+
+    def field(name: str) -> Field:
+        if name in per_body:
+            compute = lambda e: float(np.sum(e.sample[name]))  # noqa: E731
+        else:
+            compute = lambda e: getattr(e.totals, name)  # noqa: E731
+        return Field(name, "f8", cols[name].units, cols[name].doc, compute, cols[name].since)
+
+    return tuple(field(name) for name in ENERGY_LEDGERS)
 
 
 FIELDS: tuple[Field, ...] = (
-    Field("capsized_fraction", "f8", "1", "fraction of icebergs capsized (tilted 45 degrees or more)"),
-    Field("leading_edge", "f8", "w", "leading edge: how far the front (the foremost iceberg centre) has advanced since t = 0"),
-    Field("kinetic_energy", "f8", E, "kinetic energy, summed over icebergs"),
-    Field("potential_energy", "f8", E, "potential energy (gravity and buoyancy), summed over icebergs"),
+    Field(
+        "capsized_fraction",
+        "f8",
+        "1",
+        "fraction of icebergs capsized (tilted 45 degrees or more)",
+        lambda e: capsized_fraction(e.sample["theta"]),
+    ),
+    Field(
+        "leading_edge",
+        "f8",
+        "w",
+        "leading edge: how far the front (the foremost iceberg centre) has advanced since t = 0",
+        lambda e: leading_edge(e.sample["x"], e.x0_max),
+    ),
+    Field("kinetic_energy", "f8", E, "kinetic energy, summed over icebergs", lambda e: float(np.sum(e.sample["kinetic"]))),
+    Field(
+        "potential_energy",
+        "f8",
+        E,
+        "potential energy (gravity and buoyancy), summed over icebergs",
+        lambda e: float(np.sum(e.sample["potential"])),
+    ),
     *_ledger_fields(),
-    Field("contacts", "i8", "1", "impulses applied since the previous diagnostic"),
-    Field("wall_force", "f8", "rho_w g w^2", "mean horizontal force on the wall since the previous diagnostic"),
-    Field("impulse_rate", "f8", "rho_w g w^2", "sum of impulses per unit time since the previous diagnostic"),
+    Field(
+        "contacts",
+        "i8",
+        "1",
+        "impulses applied since the previous diagnostic",
+        lambda e: e.totals.impulses - e.previous.impulses,
+        since=3,
+    ),
+    Field(
+        "wall_force",
+        "f8",
+        "rho_w g w^2",
+        "mean horizontal force on the wall since the previous diagnostic",
+        lambda e: e.rate("wall_impulse"),
+        since=3,
+    ),
+    Field(
+        "impulse_rate",
+        "f8",
+        "rho_w g w^2",
+        "sum of impulses per unit time since the previous diagnostic",
+        lambda e: e.rate("impulse_sum"),
+        since=3,
+    ),
 )
 NAMES: tuple[str, ...] = tuple(f.name for f in FIELDS)
+
+
+def row(event: Event) -> dict[str, float]:
+    """The diagnostics of one event, ``time`` first."""
+    return {"time": event.t, **{f.name: f.compute(event) for f in FIELDS}}
+
+
+def required(format_version: int) -> tuple[str, ...]:
+    """The diagnostics every run file of ``format_version`` holds (``time`` first)."""
+    return ("time", *(f.name for f in FIELDS if f.since <= format_version))
 
 
 def capsize_angle(theta: np.ndarray) -> np.ndarray:

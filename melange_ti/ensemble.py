@@ -5,7 +5,7 @@ Plan, validate, then run:
 1. ``--set KEY=V1,V2,...`` lists are swept (Cartesian product over all listed keys, in the
    order given), a value without a top-level comma is a plain override; seeds are 1..K.
    Every run's scene (overrides plus ``time.seed``) is validated before anything starts, and
-   existing files in DIR are classified: finished (``attrs["complete"]``) -> skipped;
+   existing files in DIR are classified: finished (the file's ``complete`` attribute) -> skipped;
    unfinished with a checkpoint -> resumed; unfinished without one (or unreadable) ->
    overwritten. A file holding a *different* scene's results is refused up front.
    Input problems raise :class:`~melange_ti.scene.SceneError` or
@@ -228,24 +228,11 @@ def validate(text: str, runs: list[RunSpec], label: str | None) -> dict[str, str
     return resolved
 
 
-def _read_state(path: Path) -> tuple[str | None, bool] | None:
-    """``(scene_toml, complete)`` of an existing run file, or None if it is not readable."""
-    import h5py
-
-    try:
-        with h5py.File(path, "r") as f:  # default locking, as a user's own h5py (io.hdf5)
-            toml = f.attrs.get("scene_toml")
-            if isinstance(toml, bytes):
-                toml = toml.decode()
-            return (None if toml is None else str(toml)), bool(f.attrs.get("complete", False))
-    except (OSError, ValueError, KeyError):
-        return None
-
-
 def classify(out_dir: Path, runs: list[RunSpec], resolved: dict[str, str]) -> None:
     """Decide each run's action from what DIR holds; refuse files of a different scene."""
     from .errors import RunError
     from .io.checkpoint import checkpoint_path
+    from .io.hdf5 import run_status
 
     for r in runs:
         path = out_dir / r.file
@@ -253,7 +240,7 @@ def classify(out_dir: Path, runs: list[RunSpec], resolved: dict[str, str]) -> No
         if not path.exists() and not path.is_symlink():
             r.action = "fresh"
             continue
-        state = _read_state(path)
+        state = run_status(path)
         if state is None:  # unreadable (or a directory): cannot be resumed
             r.action = "overwrite"
             continue
@@ -265,19 +252,9 @@ def classify(out_dir: Path, runs: list[RunSpec], resolved: dict[str, str]) -> No
 
 def _last_diagnostics(path: Path) -> dict:
     """Final time, capsized fraction and leading edge recorded in a finished file."""
-    import h5py
+    from .io.hdf5 import last_row
 
-    from .io.hdf5 import consistent_length
-
-    try:
-        with h5py.File(path, "r") as f:  # default locking, as a user's own h5py (io.hdf5)
-            g = f["diagnostics"]
-            n = consistent_length(g)
-            if n == 0:
-                return {}
-            return {k: float(g[k][n - 1]) for k in ("time", "capsized_fraction", "leading_edge")}
-    except (OSError, KeyError, ValueError):
-        return {}
+    return last_row(path, ("capsized_fraction", "leading_edge"))
 
 
 def write_manifest(out_dir: Path, runs: list[RunSpec], axes: list[Axis], scene_path: str | None, seeds: int, name: str) -> None:

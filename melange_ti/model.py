@@ -48,24 +48,18 @@ from .physics.schema import (
 )
 from .scene import Icebergs, Scene
 
-# On the CPU at or below this N one kernel call runs many serial steps; above it each stage
-# is launched as parallel kernels. Both give the same bits. On 2 cores (benchmarks/modes.py,
-# five runs) the serial form was clearly faster at N = 10,000, the two were a wash from
-# 40,000 to 70,000, and the parallel form was level or faster at 100,000.
+# On the CPU up to this N one kernel call runs many serial steps, above it each stage is
+# launched as parallel kernels (the same bits): where the forms cross, docs/performance.md.
 SERIAL_MAX_N = 50000
 
-# Between these N, with more than one CPU thread, ``mode="auto"`` measures instead of
-# guessing: the first advance runs a few steps in each form and keeps the faster
-# (:meth:`Model.advance`). Where the serial form wins depends on the thread count and the
-# machine (on 2 cores it won up to ~50,000; a many-core machine's parallel form wins far
-# lower). Below CALIBRATE_MIN_N the serial form always wins: a parallel step costs ~15
-# kernel launches of ~10 us each, more than the whole serial step of a few thousand bodies.
+# Between these N, with more than one CPU thread, ``mode="auto"`` times both forms at the
+# first advance and keeps the faster (:meth:`Model.advance`), as the crossing depends on the
+# machine; below, a parallel step's launches cost more than a serial step (docs/performance.md).
 CALIBRATE_MIN_N = 2000
 
-# The parallel form solves islands of touching icebergs side by side (physics/islands.py)
-# from this many CPU threads (always on a GPU). On 2 threads, N = 100,000 active, finding
-# the islands (~2.3 ms, sequential) and adding their energy terms in order cost what the
-# two threads save in the passes (docs/performance.md): 1.06x slower, so off there.
+# From this many CPU threads (always on a GPU) the parallel form solves islands of touching
+# icebergs side by side (physics/islands.py); on fewer, finding them costs what they save
+# (docs/performance.md).
 ISLANDS_MIN_THREADS = 4
 CALIBRATE_STEPS = 8  # timed steps per form, after one untimed step each (compilation)
 
@@ -81,7 +75,7 @@ class Totals:
     impulse_offset_work: float
     wall_impulse: float
     impulse_sum: float
-    contacts: int
+    impulses: int
 
 
 def _scene_value(scene: Scene, key: str) -> float:
@@ -128,10 +122,8 @@ class Model:
         self.contacts = self.fx.contacts
         slots = scene.contacts.max_partners if self.fx.collisions else 1
         ncells = 1 << max(2, math.ceil(math.log2(max(n, 4)))) if self.fx.collisions else 4
-        # candidate lists for the narrow phase (272 bytes per iceberg at 28 discs), in both
-        # forms: on 2 cores they cut the step by ~20% at N = 400 and 4000 and the narrow
-        # phase by ~12% at N = 100,000 (docs/performance.md). Contacts are bit-for-bit the
-        # same without them.
+        # candidate lists for the narrow phase, in both forms: the same contacts bit for bit,
+        # found faster at every N (docs/performance.md)
         self.lists = bool(self.fx.collisions)
         nc = n if self.contacts else 1
         nlists = n if self.lists else 1
@@ -266,7 +258,7 @@ class Model:
 
     @staticmethod
     def _totals(acc: np.ndarray, cnt: np.ndarray) -> Totals:
-        return Totals(**{name: float(acc[k]) for name, k in ACC_LEDGERS.items()}, contacts=int(cnt[Counter.CONTACTS]))
+        return Totals(**{name: float(acc[k]) for name, k in ACC_LEDGERS.items()}, impulses=int(cnt[Counter.IMPULSES]))
 
     def accumulators(self) -> dict[str, np.ndarray]:
         """Everything cumulative besides the state (for checkpoints): the per-body ledgers

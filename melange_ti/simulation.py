@@ -22,11 +22,11 @@ from . import __version__
 from . import diagnostics as diag
 from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
-from .io.hdf5 import OutputError, RunWriter, read_run
+from .io.hdf5 import SCENE_ATTR, OutputError, RunWriter, read_run, scene_text
 from .model import Model
-from .physics.schema import ACC_LEDGERS, BODY_LEDGERS, STATE_NAMES
+from .physics.schema import STATE_NAMES
 from .physics.stages import SAMPLE_NAMES
-from .scene import Scene
+from .scene import Icebergs, Scene
 
 # Output events between two writes of the model's state run in one launch (Simulation._batch):
 # at most this many, and this many bytes of samples
@@ -155,17 +155,17 @@ class _Counters:
     """Cumulative totals at the previous diagnostic (rates are differences of these)."""
 
     t: float = 0.0
-    contacts: int = 0
+    impulses: int = 0
     wall_impulse: float = 0.0
     impulse_sum: float = 0.0
 
     def save(self) -> dict:
-        return {"counters": np.array([self.t, self.wall_impulse, self.impulse_sum]), "counter_contacts": self.contacts}
+        return {"counters": np.array([self.t, self.wall_impulse, self.impulse_sum]), "counter_contacts": self.impulses}
 
     @classmethod
     def load(cls, ck: dict) -> _Counters:
         t, wall, imp = (float(v) for v in ck["counters"])
-        return cls(t=t, contacts=int(ck["counter_contacts"]), wall_impulse=wall, impulse_sum=imp)
+        return cls(t=t, impulses=int(ck["counter_contacts"]), wall_impulse=wall, impulse_sum=imp)
 
 
 class Diagnostics:
@@ -184,20 +184,8 @@ class Diagnostics:
     def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
         tot = sim.totals  # fetched with the sample
         c = self.counters
-        span = t - c.t
-        row = {
-            "time": t,
-            "capsized_fraction": diag.capsized_fraction(s["theta"]),
-            "leading_edge": diag.leading_edge(s["x"], sim.x0_max),
-            "kinetic_energy": float(np.sum(s["kinetic"])),
-            "potential_energy": float(np.sum(s["potential"])),
-            **{name: float(np.sum(s[name])) for name in BODY_LEDGERS},
-            **{name: getattr(tot, name) for name in ACC_LEDGERS if name in diag.NAMES},
-            "contacts": tot.contacts - c.contacts,
-            "wall_force": (tot.wall_impulse - c.wall_impulse) / span if span > 0 else 0.0,
-            "impulse_rate": (tot.impulse_sum - c.impulse_sum) / span if span > 0 else 0.0,
-        }
-        c.t, c.contacts, c.wall_impulse, c.impulse_sum = t, tot.contacts, tot.wall_impulse, tot.impulse_sum
+        row = diag.row(diag.Event(t, s, tot, c, sim.x0_max))  # each field computed as diag.FIELDS declares
+        c.t, c.impulses, c.wall_impulse, c.impulse_sum = t, tot.impulses, tot.wall_impulse, tot.impulse_sum
         self.last, self.last_step = row, step
         sim.writer.diagnostic(row)
 
@@ -240,7 +228,7 @@ class Snapshots:
 
     name = "snapshots"
     at_end = True
-    from_sample = False  # can run on a sample taken earlier in the same launch (Simulation._batch)
+    from_sample = False  # writes the state at the end of a launch: a batch stops here (Simulation._batch)
 
     def __init__(self, schedule: IterationInterval):
         self.schedule = schedule
@@ -251,12 +239,13 @@ class Snapshots:
 
 class Checkpoints:
     """Everything the next step depends on (:mod:`melange_ti.io.checkpoint`): the state and
-    every ledger and counter the schema names, so a resumed run is bit-identical. Not at
-    the last step (a finished run needs none)."""
+    every ledger and counter the schema names, and the icebergs' sizes as the model was built
+    from them, so a resumed run is bit-identical and needs no ``[start]`` file. Not at the
+    last step (a finished run needs none)."""
 
     name = "checkpoints"
     at_end = False
-    from_sample = False  # can run on a sample taken earlier in the same launch (Simulation._batch)
+    from_sample = False  # reads the model itself (state, ledgers): a batch stops here (Simulation._batch)
 
     def __init__(self, schedule: IterationInterval, diagnostics: Diagnostics):
         self.schedule = schedule
@@ -265,11 +254,13 @@ class Checkpoints:
     def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
         sim.writer.flush()
         data = {
-            "scene_toml": sim.scene.to_toml(),
+            SCENE_ATTR: sim.scene.to_toml(),
             "step": step,
             **{f"state_{k}": v for k, v in sim.model.state().items()},
             **{f"acc_{k}": v for k, v in sim.model.accumulators().items()},
             **self.diagnostics.counters.save(),
+            "width": sim.bergs.width,
+            "thickness": sim.bergs.thickness,
             "x0_max": sim.x0_max,
             "e0": sim.e0,
             "p0": sim.p0,
@@ -364,16 +355,18 @@ class Simulation:
         from . import runtime
 
         self.backend = runtime.init(self.arch, None, scene.precision)  # on demand; keeps an earlier init of the same kind
-        self.model = model = Model(scene, mode=self.mode)
+        ck = self._checkpoint() if self.resume else None
+        self.bergs = scene.icebergs() if ck is None or "width" not in ck else self._resumed_icebergs(ck)
+        self.model = model = Model(scene, self.bergs, mode=self.mode)
         start_step = 0
         if self.resume:
-            writer, start_step = self._reopen(model, dtype)
+            writer, start_step = self._reopen(model, dtype, ck)
         else:
             attrs = {
                 "scene_name": scene.name,
                 "history": f"{_utc_now()}: {self.history}",
                 "width_m": scene.width_m,
-                "scene_toml": scene.to_toml(),
+                SCENE_ATTR: scene.to_toml(),
                 "melange_ti_version": __version__,
                 "taichi_version": ".".join(map(str, ti.__version__)),
                 "arch": self.backend,
@@ -491,20 +484,29 @@ class Simulation:
         if self.on_event is not None:
             self.on_event(step)
 
-    def _reopen(self, model: Model, dtype):
+    def _checkpoint(self) -> dict:
         if not self.ckpt.exists():
             raise RunError(
                 f"{self.say['resume']}: no checkpoint {self.ckpt} (the run finished, or never started; "
                 f"use {self.say['overwrite']})"
             )
         try:
-            ck = checkpoint.load(self.ckpt)
+            return checkpoint.load(self.ckpt)
         except ValueError as exc:
             raise RunError(f"--resume: checkpoint {self.ckpt} cannot be used: {exc}") from None
+
+    @staticmethod
+    def _resumed_icebergs(ck: dict) -> Icebergs:
+        """The icebergs the run was built from: sizes as first given (exact, whatever the
+        precision), the state of the checkpoint (replaced by :meth:`_reopen` anyway)."""
+        state = {k[6:]: np.asarray(ck[k], dtype=np.float64) for k in ck if k.startswith("state_")}
+        return Icebergs(**state, width=ck["width"], thickness=ck["thickness"])
+
+    def _reopen(self, model: Model, dtype, ck: dict):
         text = self.scene.to_toml()
-        if str(ck["scene_toml"]) != text:
+        if str(ck[SCENE_ATTR]) != text:
             raise RunError(f"--resume: {self.out} was made by a different scene (or --set values); refusing to mix them")
-        stored = read_run(self.out)["attrs"].get("scene_toml")
+        stored = scene_text(self.out, read_run(self.out))
         if stored != text:
             raise RunError(f"--resume: {self.out} was made by a different scene (or --set values); refusing to mix them")
         step = int(ck["step"])

@@ -15,7 +15,7 @@ import pytest
 from melange_ti.analysis import stats
 from melange_ti.cli import main as cli
 from melange_ti.io.hdf5 import RunWriter
-from melange_ti.scene import dumps_toml, from_dict
+from melange_ti.scene import DENSITY_RATIO, dumps_toml, from_dict
 
 # ---------------------------------------------------------------------------------------
 # Helpers
@@ -43,7 +43,7 @@ def write_run(path, *, diag: dict, snaps: dict, seed: int = 1, width=None, thick
         g = f.create_group("icebergs")
         g["width"] = np.ones(n) if width is None else width
         g["thickness"] = np.full(n, 1.4) if thickness is None else thickness
-        g["mass"] = 0.8946 * g["width"][:] * g["thickness"][:]
+        g["mass"] = DENSITY_RATIO * g["width"][:] * g["thickness"][:]
         g["inertia"] = g["mass"][:] * (g["width"][:] ** 2 + g["thickness"][:] ** 2) / 12
         s = f.create_group("snapshots")
         s["time"] = np.asarray(snaps["time"], dtype=float)
@@ -127,7 +127,7 @@ def real_runs(tmp_path_factory):
         dumps_toml(
             {
                 "scene": {"name": "tiny", "effects": ["gravity", "buoyancy", "drag", "collisions", "wall"]},
-                "physics": {"density_ratio": 0.8946, "restitution": 0.5, "drag": 0.01, "angular_drag": 0.01},
+                "physics": {"density_ratio": DENSITY_RATIO, "restitution": 0.5, "drag": 0.01, "angular_drag": 0.01},
                 "time": {"dt": 0.02, "duration": 8.0, "seed": 1},
                 "output": {"snapshot_interval": 1.0, "diagnostic_interval": 0.5},
                 "shelf": {"count": 12, "width": 1.0, "thickness": 1.4, "gap": 0.6, "tilt": 0.3},
@@ -245,11 +245,11 @@ def test_grouping_by_differing_keys():
 
 
 def test_disc_layout_matches_the_model():
-    """The numpy disc layout used for drawing is the Taichi one (contacts.disc_local)."""
+    """The numpy disc layout used for drawing is the Taichi one (physics.discs.disc_local)."""
     import taichi as ti
 
     from melange_ti.geometry import disc_local, disc_radius
-    from melange_ti.physics.contacts import disc_local as ti_disc_local
+    from melange_ti.physics.discs import disc_local as ti_disc_local
 
     discs, w, h = 28, 1.0, 1.4
     r = float(disc_radius(w, h, discs))

@@ -19,13 +19,13 @@ from pathlib import Path
 import pytest
 
 from melange_ti import cli
-from melange_ti.scene import dumps_toml
+from melange_ti.scene import DENSITY_RATIO, dumps_toml
 
 THREADS = os.environ.get("MELANGE_TEST_THREADS", "2")  # as conftest: no Taichi re-init in-process
 
 BASE = {
     "scene": {"name": "bad", "effects": ["gravity", "buoyancy", "drag", "collisions", "wall"], "precision": "f64"},
-    "physics": {"density_ratio": 0.8946, "restitution": 0.5, "drag": 0.01, "angular_drag": 0.01},
+    "physics": {"density_ratio": DENSITY_RATIO, "restitution": 0.5, "drag": 0.01, "angular_drag": 0.01},
     "contacts": {"discs": 12},
     "time": {"dt": 0.01, "duration": 0.1, "seed": 1},
     "output": {"snapshot_interval": 0.05, "diagnostic_interval": 0.05},

@@ -23,10 +23,11 @@ import tomllib
 
 import melange_ti
 from melange_ti import cli, scene
+from melange_ti.scene import DENSITY_RATIO
 
 THREADS = os.environ.get("MELANGE_TEST_THREADS", "2")  # as conftest: no Taichi re-init in-process
 
-R = 0.8946
+R = DENSITY_RATIO
 Z0 = -R * 1.4 + 0.7  # hydrostatic equilibrium of an upright 1 x 1.4 iceberg
 SPIN = 3  # index of the spinning iceberg
 TINY = f"""

@@ -31,7 +31,7 @@ import h5py
 import numpy as np
 import pytest
 
-from melange_ti.scene import dumps_toml
+from melange_ti.scene import DENSITY_RATIO, dumps_toml
 
 PY = sys.executable
 
@@ -140,7 +140,7 @@ def paper_like(count: int, duration: float, snap: float, diag: float, ckpt: floa
                 "effects": ["gravity", "buoyancy", "drag", "collisions", "wall"],
                 "precision": "f64",
             },
-            "physics": {"density_ratio": 0.8946, "restitution": 0.5, "drag": 0.01, "angular_drag": 0.01},
+            "physics": {"density_ratio": DENSITY_RATIO, "restitution": 0.5, "drag": 0.01, "angular_drag": 0.01},
             "contacts": {"discs": 12},
             "time": {"dt": 0.01, "duration": duration, "seed": seed},
             "output": {"snapshot_interval": snap, "diagnostic_interval": diag, "checkpoint_interval": ckpt},
@@ -459,7 +459,7 @@ def blowup_scene(vz1: float = 0.0) -> str:
     """Two icebergs, dt = 5 (heave period ~6): iceberg 0 is a big 10 x 10 block floating at
     rest (stable at this dt), iceberg 1 a 1 x 1 block released off equilibrium, whose heave
     is unstable under semi-implicit Euler at dt = 5, so its energy runs away."""
-    r = 0.8946
+    r = DENSITY_RATIO
     return dumps_toml(
         {
             "scene": {"name": "blowup", "effects": ["gravity", "buoyancy"], "precision": "f64"},
@@ -681,7 +681,7 @@ for mode in ("serial", "parallel"):
     tot = m.totals()
     out[mode] = {
         "finite": bool(all(np.all(np.isfinite(v)) for v in s.values())),
-        "contacts": tot.contacts,
+        "contacts": tot.impulses,
         "state": {k: s[k].tolist() for k in ("x", "z", "theta", "vx", "vz", "omega")},
     }
 crowd = scn.loads(CROWD)

@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from melange_ti import scene as scn
-from melange_ti.scene import SceneError
+from melange_ti.scene import DENSITY_RATIO, SceneError
 
 FUZZ = settings(
     max_examples=100,
@@ -35,7 +35,7 @@ FUZZ = settings(
 BASE = {
     "scene": {"name": "fuzz", "effects": ["gravity", "buoyancy", "drag", "collisions", "wall"], "precision": "f64"},
     "physics": {
-        "density_ratio": 0.8946,
+        "density_ratio": DENSITY_RATIO,
         "restitution": 0.5,
         "drag": 0.01,
         "angular_drag": 0.01,

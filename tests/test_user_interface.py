@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import melange_ti as mt
-from melange_ti.io.hdf5 import read_run
+from melange_ti.io.hdf5 import FORMAT_VERSION, read_run
 from melange_ti.scene import dumps_toml
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -107,7 +107,7 @@ def test_xarray_round_trip(small_run):
     assert float(tree["diagnostics"].time[-1]) == 30.0
     for key in ("title", "source", "history", "references", "Conventions", "scene_toml", "width_m"):
         assert key in tree.attrs, key
-    assert tree.attrs["format_version"] == 2
+    assert tree.attrs["format_version"] == FORMAT_VERSION
     assert abs(float(tree["diagnostics"].capsized_fraction[-1]) - summary.capsized_fraction) == 0.0
 
 

@@ -37,7 +37,7 @@ LATE = 20.0  # fits from t c >= 20 (t >= 2000 at the paper's drag): past the thr
 
 def load(paths):
     """drag -> list of diagnostics dicts (each run's own scene gives its drag)."""
-    from melange_ti.io.hdf5 import stored_scene
+    from melange_ti.scene import stored_scene
 
     runs: dict[float, list[dict]] = {}
     for p in paths:

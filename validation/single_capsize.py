@@ -23,7 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-R = 0.8946
+from melange_ti.scene import DENSITY_RATIO
+
+R = DENSITY_RATIO
 
 
 def run_one(aspect: float, cd: float, ca: float, dt: float = 0.01, duration: float = 300.0) -> dict:

@@ -23,8 +23,8 @@ from matplotlib.colors import Normalize  # noqa: E402
 from .. import diagnostics as diag  # noqa: E402
 from ..errors import RunError  # noqa: E402
 from ..geometry import disc_local  # noqa: E402
-from ..io.hdf5 import OutputError, read_run, stored_scene  # noqa: E402
-from ..scene import Scene, SceneError  # noqa: E402
+from ..io.hdf5 import OutputError, read_run  # noqa: E402
+from ..scene import Scene, SceneError, stored_scene  # noqa: E402
 
 G_SI = 9.81  # m s^-2
 CMAP = "plasma"
@@ -37,7 +37,7 @@ WIDE = 80.0  # widths beyond which a frame gets a leading-edge zoom panel
 
 
 # ---------------------------------------------------------------------------------------
-# Geometry (numpy; mirrors melange_ti.physics.contacts and melange_ti.scene)
+# Geometry (numpy; mirrors melange_ti.physics.discs and melange_ti.scene)
 
 
 def rect_corners(x, z, theta, width, thickness) -> np.ndarray:

@@ -7,25 +7,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..io.hdf5 import DIAGNOSTICS, OutputError, read_run, stored_scene
-from ..physics.effects import NAMES, PAPER_EFFECTS
-from ..physics.schema import BODIES
-from ..scene import Scene, SceneError
+from .. import diagnostics
+from ..io.hdf5 import OutputError, read_run
+from ..scene import Scene, SceneError, stored_scene
 from . import stats
 
 PAPER_FIG2_TIMES = (100.0, 200.0, 300.0, 400.0)
-BEYOND_PAPER = tuple(n for n in NAMES if n not in PAPER_EFFECTS)
-# every diagnostic (docs/output.md) the figures need: the writer's list minus the extras and
-# the ledgers of effects beyond the paper and those added after 0.2.0 (absent from older
-# files: counted as 0)
-_OPTIONAL = (
-    "contacts",
-    "wall_force",
-    "impulse_rate",
-    "impulse_offset_work",
-    *(c.output for c in BODIES.columns if c.owner in BEYOND_PAPER),
-)
-REQUIRED_DIAGNOSTICS = ("time", *(k for k in DIAGNOSTICS if k not in _OPTIONAL))
 
 
 @dataclass
@@ -63,7 +50,9 @@ def load_run(path: str | Path) -> Run:
     path = Path(path)
     data = read_run(path)
     scene = stored_scene(path, data)
-    missing = [k for k in REQUIRED_DIAGNOSTICS if k not in data["diagnostics"]]
+    # a diagnostic newer than the file's format is absent from it (the budget counts it 0)
+    version = int(data["attrs"].get("format_version", 1))
+    missing = [k for k in diagnostics.required(version) if k not in data["diagnostics"]]
     missing += [f"snapshots/{k}" for k in ("time", "x", "z", "theta") if k not in data["snapshots"]]
     missing += [f"icebergs/{k}" for k in ("width", "thickness") if k not in data["icebergs"]]
     if missing:

@@ -130,14 +130,6 @@ def nearest_index(times: np.ndarray, t: float) -> int:
     return int(np.argmin(np.abs(times - t)))
 
 
-def capsized_fraction_series(theta: np.ndarray) -> np.ndarray:
-    """Capsized fraction of each snapshot row of ``theta`` (S, N) -> (S,)."""
-    theta = np.asarray(theta, dtype=float)
-    if theta.shape[-1] == 0:
-        return np.zeros(theta.shape[0])
-    return diag.capsized(theta).mean(axis=1)
-
-
 def position_edges(x_min: float, x_max: float, bin_width: float = 10.0) -> np.ndarray:
     """Bin edges ``x_min, x_min + bin_width, ...`` covering ``x_max`` (at least one bin)."""
     nbins = max(1, int(math.floor((x_max - x_min) / bin_width)) + 1)

@@ -234,6 +234,18 @@ def log_limits(ax, values) -> None:
         ax.set_ylim(v.min() / 3, v.max() * 4)
 
 
+def save_ms_bars(plt, fig, ax, rows: list[dict], title: str, path: Path) -> None:
+    """Finish a bar chart of ``ms_per_step`` (log axis, legend, grid) and write it to ``path``."""
+    ax.set_yscale("log")
+    log_limits(ax, [r["ms_per_step"] for r in rows])
+    ax.set_ylabel("wall ms per step")
+    ax.set_title(title)
+    ax.legend()
+    ax.grid(True, axis="y", which="both", alpha=0.3)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def plain_log_ticks(ax) -> None:
     """Short tick labels on log axes that span less than two decades (the default labels
     every minor tick as ``2.5x10^-4``, which overlap)."""

@@ -14,10 +14,10 @@ from .common import (
     Options,
     evolved_block,
     init,
-    log_limits,
     paper_scene,
     print_table,
     pyplot,
+    save_ms_bars,
     steps_for,
     tile,
     time_advance,
@@ -113,11 +113,4 @@ def _plot(rows: list[dict], path: Path) -> None:
         for b, v in zip(bars, y, strict=True):
             ax.annotate(f"{v:.3g}", (b.get_x() + b.get_width() / 2, v), ha="center", va="bottom", fontsize=7)
     ax.set_xticks(np.arange(len(labels)), labels, rotation=20)
-    ax.set_yscale("log")
-    log_limits(ax, [r["ms_per_step"] for r in rows])
-    ax.set_ylabel("wall ms per step")
-    ax.set_title("cost of each effect (paper scene; an effect left out is not compiled)")
-    ax.legend()
-    ax.grid(True, axis="y", which="both", alpha=0.3)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_ms_bars(plt, fig, ax, rows, "cost of each effect (paper scene; an effect left out is not compiled)", path)

@@ -32,15 +32,16 @@ from pathlib import Path
 import numpy as np
 
 from ..geometry import potential_energy, submerged_moments  # noqa: F401 (re-exported)
+from ..scene.keys import DENSITY_RATIO
 from .common import (
     Options,
     evolved_block,
     init,
     initial_state,
-    log_limits,
     paper_scene,
     print_table,
     pyplot,
+    save_ms_bars,
     steps_for,
     tile,
     time_advance,
@@ -63,10 +64,25 @@ class PymunkMelange:
     from :meth:`melange_ti.scene.Scene.icebergs` or a melange_ti model's state.
     """
 
+    @classmethod
+    def for_scene(cls, state: dict, scene) -> PymunkMelange:
+        """The peer of a melange_ti ``scene`` (its physics and dt), from ``state``."""
+        p = scene.physics
+        return cls(
+            state,
+            density_ratio=p.density_ratio,
+            restitution=p.restitution,
+            drag=p.drag,
+            angular_drag=p.angular_drag,
+            water_level=p.water_level,
+            wall_x=p.wall_x,
+            dt=scene.time.dt,
+        )
+
     def __init__(
         self,
         state: dict,
-        density_ratio: float = 0.8946,
+        density_ratio: float = DENSITY_RATIO,
         restitution: float = 0.5,
         drag: float = 0.01,
         angular_drag: float = 0.01,
@@ -220,7 +236,6 @@ def run(out: Path, o: Options) -> int:
     rows = []
     for n in sizes:
         sc = paper_scene(n)
-        p = sc.physics
         steps = steps_for(n, o.quick, o.steps)
         psteps = steps_for(n, o.quick, o.steps, work=2e5, hi=500)
         warm = 5 if o.quick else max(10, steps // 10)
@@ -243,16 +258,7 @@ def run(out: Path, o: Options) -> int:
                 }
             )
             if peer:
-                sim = PymunkMelange(
-                    st,
-                    density_ratio=p.density_ratio,
-                    restitution=p.restitution,
-                    drag=p.drag,
-                    angular_drag=p.angular_drag,
-                    water_level=p.water_level,
-                    wall_x=p.wall_x,
-                    dt=sc.time.dt,
-                )
+                sim = PymunkMelange.for_scene(st, sc)
                 sim.advance(warm)
                 per = []
                 for _ in range(repeats):
@@ -312,11 +318,4 @@ def _plot(rows: list[dict], path: Path) -> None:
             text = f"{v:.3g}" if eng == "melange_ti" else f"{v:.3g}\n(x{ratio:.2g})"
             ax.annotate(text, (b.get_x() + b.get_width() / 2, v), ha="center", va="bottom", fontsize=8)
     ax.set_xticks(np.arange(len(groups)), [f"N = {n:,}\n{s}" for n, s in groups])
-    ax.set_yscale("log")
-    log_limits(ax, [r["ms_per_step"] for r in rows])
-    ax.set_ylabel("wall ms per step")
-    ax.set_title("paper scene: melange_ti vs pymunk + numpy buoyancy/drag")
-    ax.legend()
-    ax.grid(True, axis="y", which="both", alpha=0.3)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_ms_bars(plt, fig, ax, rows, "paper scene: melange_ti vs pymunk + numpy buoyancy/drag", path)

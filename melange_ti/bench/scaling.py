@@ -57,12 +57,12 @@ def columns() -> list[str]:
 def time_output(model, sc, repeats: int) -> dict[str, float]:
     """Cost of output: ``sample()`` and one HDF5 snapshot (RunWriter), and per step amortised
     over the scene's diagnostic and snapshot intervals."""
-    from ..io.hdf5 import RunWriter
+    from ..io.hdf5 import SCENE_ATTR, RunWriter
 
     dtype = np.float32 if sc.precision == "f32" else np.float64
     t_sample, t_write = [], []
     with tempfile.TemporaryDirectory() as d:
-        writer = RunWriter(Path(d) / "bench.h5", {"scene_toml": sc.to_toml()}, model.constants(), dtype)
+        writer = RunWriter(Path(d) / "bench.h5", {SCENE_ATTR: sc.to_toml()}, model.constants(), dtype)
         try:
             writer.snapshot(-1.0, model.sample())  # the first sample() compiles its kernel
             for k in range(max(2, repeats)):
@@ -116,9 +116,9 @@ def run(out: Path, o: Options) -> int:
         for state_name, st in (("initial", initial_state(sc)), ("active", tile(block_state, n))):
             auto.set_state(st)
             auto.advance(warm)  # compiles on first use
-            c0 = auto.totals().contacts
+            c0 = auto.totals().impulses
             s_step = time_advance(auto, steps, repeats)
-            imp = (auto.totals().contacts - c0) / (steps * repeats)
+            imp = (auto.totals().impulses - c0) / (steps * repeats)
             by_mode = {auto.mode: s_step, other_mode: float("nan")}
             if other is not None:
                 other.set_state(st)

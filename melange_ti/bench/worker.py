@@ -34,9 +34,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ContactOverflow
+from ..scene.keys import DENSITY_RATIO
 from .common import STATE, dt_overrides, paper_scene, sync
 
-R_DEFAULT = 0.8946
+R_DEFAULT = DENSITY_RATIO
 
 
 def _energy(sample: dict, index=None) -> float:
@@ -46,6 +47,17 @@ def _energy(sample: dict, index=None) -> float:
 
 def _finite(sample: dict) -> bool:
     return all(np.all(np.isfinite(sample[k])) for k in STATE)
+
+
+def _intervals(model, total: int, every: int):
+    """Advance ``model`` through ``total`` steps, ``every`` at a time; yield the step reached
+    and the model's sample there."""
+    step = 0
+    while step < total:
+        k = min(every, total - step)
+        model.advance(k)
+        step += k
+        yield step, model.sample()
 
 
 # ---------------------------------------------------------------------------- paper scene
@@ -175,13 +187,8 @@ def task_analytic(t: dict, precision: str) -> dict:
     total = int(round(span / dt))
     s = m.sample()
     ts, th, e1 = [0.0], [float(s["theta"][0])], [_energy(s, 1)]
-    step = 0
     finite = True
-    while step < total:
-        k = min(every, total - step)
-        m.advance(k)
-        step += k
-        s = m.sample()
+    for step, s in _intervals(m, total, every):
         if not _finite(s):
             finite = False
             break
@@ -285,12 +292,7 @@ def task_stable_single(t: dict, precision: str) -> dict:
         every = max(1, int(round(0.05 / dt)))
         e0 = _energy(m.sample()) - u_eq
         exc = []
-        step = 0
-        while step < total:
-            k = min(every, total - step)
-            m.advance(k)
-            step += k
-            s = m.sample()
+        for step, s in _intervals(m, total, every):
             if not _finite(s):
                 return False, f"non-finite at t = {step * dt:g}"
             exc.append(_energy(s) - u_eq)
@@ -325,22 +327,18 @@ def task_stable_paper(t: dict, precision: str) -> dict:
         total = int(round(duration / dt))
         every = max(1, int(round(1.0 / dt)))
         e0 = _energy(m.sample())
-        step = 0
+        reached = 0
         worst = 0.0
-        while step < total:
-            k = min(every, total - step)
-            try:
-                m.advance(k)
-            except ContactOverflow:
-                return False, f"contact overflow at t = {(step + k) * dt:g}"
-            step += k
-            s = m.sample()
-            if not _finite(s):
-                return False, f"non-finite at t = {step * dt:g}"
-            rise = _energy(s) - e0
-            worst = max(worst, rise)
-            if rise > limit:
-                return False, f"energy rose by {rise:.3g} > {limit:.3g} at t = {step * dt:g}"
+        try:
+            for reached, s in _intervals(m, total, every):
+                if not _finite(s):
+                    return False, f"non-finite at t = {reached * dt:g}"
+                rise = _energy(s) - e0
+                worst = max(worst, rise)
+                if rise > limit:
+                    return False, f"energy rose by {rise:.3g} > {limit:.3g} at t = {reached * dt:g}"
+        except ContactOverflow:
+            return False, f"contact overflow at t = {min(reached + every, total) * dt:g}"
         return True, f"largest energy rise {worst:.3g} (limit {limit:.3g})"
 
     ladder = [float(v) for v in t.get("ladder", [0.01, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.28, 2.56])]

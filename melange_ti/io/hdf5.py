@@ -11,11 +11,16 @@ flush. Every reader here opens with h5py's default locking (no ``locking`` argum
 refuses a second open of a file that this process holds with other locking flags ("file
 locking flag values don't match"), so a user's own ``h5py.File(path)`` must be able to sit
 next to ours.
+
+This module alone knows the file's layout and attributes; it hands out plain values (the
+stored scene as TOML text, a snapshot as numpy arrays). Turning those into a ``Scene`` is
+the scene package's work (:func:`melange_ti.scene.stored_scene`, ``[start]``), above this one.
 """
 
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import shutil
 from pathlib import Path
@@ -27,9 +32,14 @@ from ..diagnostics import FIELDS
 from ..physics.schema import BODIES
 from ..physics.schema import STATE_NAMES as STATE
 
+# 3: every diagnostic of diagnostics.FIELDS with since <= 3 (contacts, wall_force,
+# impulse_rate, impulse_offset_work, added_mass_work were added during version 2);
 # 2: self-describing as netCDF-4 (dimension scales, units and long_name on every variable,
-# global attributes); 1: plain HDF5 (still read)
-FORMAT_VERSION = 2
+# global attributes); 1: plain HDF5 (still read). A diagnostic added later carries the next
+# version as its ``since``, and the figures read the older files without it.
+FORMAT_VERSION = 3
+SCENE_ATTR = "scene_toml"  # root attribute: the resolved scene, as run (TOML text)
+COMPLETE_ATTR = "complete"  # root attribute: True once the run reached its end
 DIAGNOSTICS = tuple(f.name for f in FIELDS)
 DIAG_INT = tuple(f.name for f in FIELDS if f.dtype.startswith("i"))
 TIME_UNITS = "sqrt(w/g)"
@@ -57,6 +67,10 @@ def variable_attrs() -> dict[str, dict[str, dict[str, str]]]:
 
 class OutputError(RuntimeError):
     """The output file cannot be written (one-line message)."""
+
+
+class SnapshotTimeError(OutputError):
+    """No snapshot of a run file is as early as the time asked for (one-line message)."""
 
 
 class RunWriter:
@@ -113,7 +127,7 @@ class RunWriter:
         for k, v in attrs.items():
             f.attrs[k] = v
         f.attrs["format_version"] = FORMAT_VERSION
-        f.attrs["complete"] = False
+        f.attrs[COMPLETE_ATTR] = False
         meta = variable_attrs()
         n = len(next(iter(constants.values()))) if constants else 0
         # dimension scales (netCDF-4 dimensions): iceberg at the root, time in each group
@@ -155,7 +169,7 @@ class RunWriter:
             keep = int(np.searchsorted(times, t + 1e-9 * max(1.0, abs(t)), side="right")) if t is not None else n
             for ds in g.values():
                 ds.resize(keep, axis=0)
-        self.f.attrs["complete"] = False
+        self.f.attrs[COMPLETE_ATTR] = False
 
     @property
     def snapshots_written(self) -> int:
@@ -226,7 +240,7 @@ class RunWriter:
         try:
             self.flush()
             if complete:
-                self.f.attrs["complete"] = True
+                self.f.attrs[COMPLETE_ATTR] = True
                 self.f.flush()
         except (OSError, RuntimeError, OutputError):
             if complete:
@@ -255,7 +269,7 @@ def consistent_lengths(path: str | Path, complete: bool = False):
     with ``complete``, also whether the run finished (its ``complete`` attribute)."""
     with _reading(path) as f:
         lengths = {group: consistent_length(f[group]) for group in ("snapshots", "diagnostics")}
-        return (lengths, bool(f.attrs.get("complete", False))) if complete else lengths
+        return (lengths, bool(f.attrs.get(COMPLETE_ATTR, False))) if complete else lengths
 
 
 @contextlib.contextmanager
@@ -276,7 +290,7 @@ def is_partial(path: str | Path) -> bool:
     """Whether the run file says its run has not finished (stopped, or still running); a
     file without the ``complete`` attribute (hand-made) counts as finished."""
     with _reading(path) as f:
-        return "complete" in f.attrs and not bool(f.attrs["complete"])
+        return COMPLETE_ATTR in f.attrs and not bool(f.attrs[COMPLETE_ATTR])
 
 
 def read_run(path: str | Path) -> dict:
@@ -302,14 +316,49 @@ def _plain(v):
     return v
 
 
-def stored_scene(path: str | Path, data: dict):
-    """The scene a run file was made with (from :func:`read_run` data); one-line errors."""
-    from ..scene import SceneError, loads
-
-    text = data["attrs"].get("scene_toml")
+def scene_text(path: str | Path, data: dict) -> str:
+    """The resolved scene a run file was made with, as TOML text (from :func:`read_run` data)."""
+    text = data["attrs"].get(SCENE_ATTR)
     if not isinstance(text, str):
-        raise OutputError(f"{path}: not a melange_ti run file (no scene_toml attribute)")
+        raise OutputError(f"{path}: not a melange_ti run file (no {SCENE_ATTR} attribute)")
+    return text
+
+
+def run_status(path: str | Path) -> tuple[str | None, bool] | None:
+    """``(stored scene text or None, complete)`` of a run file; ``None`` if it cannot be read."""
     try:
-        return loads(text)
-    except SceneError as exc:
-        raise SceneError(f"{path}: stored scene: {exc}") from None
+        with h5py.File(path, "r") as f:  # default locking (the module docstring)
+            text = _plain(f.attrs.get(SCENE_ATTR))
+            return (None if text is None else str(text)), bool(f.attrs.get(COMPLETE_ATTR, False))
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def last_row(path: str | Path, names: tuple[str, ...]) -> dict[str, float]:
+    """The last consistent diagnostic row's ``names`` (with ``time``); empty if there is none
+    or the file cannot be read."""
+    try:
+        with h5py.File(path, "r") as f:
+            g = f["diagnostics"]
+            n = consistent_length(g)
+            return {k: float(g[k][n - 1]) for k in ("time", *names)} if n else {}
+    except (OSError, KeyError, ValueError):
+        return {}
+
+
+def last_snapshot(path: str | Path, time: float = math.inf) -> dict[str, np.ndarray | float]:
+    """The last snapshot at or before ``time`` (within 1e-9 relative): ``{"time": t, "x": ...,
+    ..., "omega": ..., "width": ..., "thickness": ...}``, float64 arrays of shape (N,).
+    One-line :class:`OutputError` for an unreadable file or one without snapshots,
+    :class:`SnapshotTimeError` if the first snapshot is later than ``time``."""
+    data = read_run(path)
+    times = data["snapshots"]["time"]
+    if times.size == 0:
+        raise OutputError(f"{path}: the run has no snapshot")
+    k = int(np.searchsorted(times, time + 1e-9 * max(1.0, abs(time)), side="right")) - 1 if time < math.inf else -1
+    if k < 0 and time < math.inf:
+        raise SnapshotTimeError(f"before the run's first snapshot (t = {times[0]:g})")
+    out: dict = {"time": float(times[k])}
+    out.update({name: np.asarray(data["snapshots"][name][k], dtype=np.float64) for name in STATE})
+    out.update({name: np.asarray(data["icebergs"][name], dtype=np.float64) for name in ("width", "thickness")})
+    return out

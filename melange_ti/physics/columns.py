@@ -51,6 +51,7 @@ class Acc:
 
 
 ROLES = ("state", "constant", "cache", "scratch", "ledger", "counter", "config")
+E = "rho_w g w^3"  # energy per unit length into the page (g = rho_w = w = 1)
 
 
 @dataclass(frozen=True)
@@ -61,7 +62,12 @@ class Column:
     in :meth:`Model.sample` (``vx``), or ``None``; ``units``: non-dimensional units (lengths
     in widths ``w``, time in ``sqrt(w/g)``, densities in ``rho_w``; energies per unit length
     into the page are in ``rho_w g w^3``); ``line``: cache line (bodies only);
-    ``source``: for parameters, the scene key the value comes from (``physics.drag``)."""
+    ``source``: for parameters, the scene key the value comes from (``physics.drag``);
+    ``budget``: an energy ledger booked in the energy budget (``E(0) - E(t)`` is the sum of
+    these), marked here rather than recognised by its units, so that a typo cannot drop a
+    term: a ``budget`` column must be a ``ledger`` in units of :data:`E`; ``since``: for a
+    ledger summed into a diagnostic, the run-file format version that first holds it (the
+    figures read older files without it)."""
 
     name: str
     role: str
@@ -71,10 +77,14 @@ class Column:
     line: int | None = None
     source: str | None = None
     owner: str | None = None  # the effect that declares the column (None: the model's own)
+    budget: bool = False
+    since: int = 1
 
     def __post_init__(self):
         if self.role not in ROLES:
             raise ValueError(f"column {self.name}: role {self.role!r} not in {ROLES}")
+        if self.budget and (self.role != "ledger" or self.units != E or not self.output):
+            raise ValueError(f"column {self.name}: a budget column must be a ledger in {E} with an output name")
 
 
 @dataclass(frozen=True)

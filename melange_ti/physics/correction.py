@@ -11,10 +11,11 @@ energy the pushes add is booked per moved body (``Acc.CORRECTION``, ``correction
 
 import taichi as ti
 
-from .effects import wall
 from .forces import contact_mass, potential_energy
 from .impulses import contact, contact_range, normal_speed
+from .numerics import TINY
 from .schema import Acc, Body, BodyInt, Contact, Param
+from .terms import wall
 
 MAX_CORRECT = 4  # correction sweeps while some overlap is still being pushed apart
 
@@ -52,7 +53,7 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end, eager:
     else:
         g = wall.gap(a, i)
     pushed = 0
-    if g < -1e-12:
+    if g < -TINY:
         pushed = 1
         depth = -g
         if ti.static(not eager):

@@ -247,7 +247,7 @@ def impulse_total(fx: ti.template(), a: ti.template()):
         wal += a.red[blk, 2]
         imp += a.red[blk, 3]
         count += ti.cast(a.red[blk, 4], ti.i64)
-    a.cnt[Counter.CONTACTS] += count
+    a.cnt[Counter.IMPULSES] += count
     a.acc[Acc.COLLISION] += col
     a.acc[Acc.OFFSET] += off
     a.acc[Acc.WALL_IMPULSE] += wal

@@ -9,6 +9,8 @@ segment from the exit to the entry crossing closes the polygon. Units: widths, g
 
 import taichi as ti
 
+from .numerics import FAR
+
 
 @ti.func
 def _segment(px, pz, qx, qz):
@@ -26,6 +28,31 @@ def corner(k: ti.template(), hw, hh, c, s):
 
 
 @ti.func
+def _wet_edge(k: ti.template(), hw, hh, c, s, level):
+    """Edge ``k`` (corner k to k + 1, CCW) clipped at the water line ``level`` (relative to
+    the centre): its submerged piece ``a -> b``, whether any of it is submerged, whether it
+    leaves the water at ``b`` and whether it enters it at ``a``."""
+    p = corner(k, hw, hh, c, s)
+    q = corner((k + 1) % 4, hw, hh, c, s)
+    p_wet = p[1] < level
+    q_wet = q[1] < level
+    a = p
+    b = q
+    leaves = 0
+    enters = 0
+    if p_wet != q_wet:
+        t = (level - p[1]) / (q[1] - p[1])
+        cut = ti.Vector([p[0] + t * (q[0] - p[0]), level])
+        if p_wet:
+            b = cut
+            leaves = 1
+        else:
+            a = cut
+            enters = 1
+    return a, b, ti.cast(p_wet or q_wet, ti.i32), leaves, enters
+
+
+@ti.func
 def submerged_moments(z, c, s, hw, hh, water_level):
     """(A, Sx, Sz) of the part of the rectangle below ``water_level``.
 
@@ -39,21 +66,14 @@ def submerged_moments(z, c, s, hw, hh, water_level):
     entry_pt = ti.Vector([0.0, 0.0])
     crossed = 0
     for k in ti.static(range(4)):
-        p = corner(k, hw, hh, c, s)
-        q = corner((k + 1) % 4, hw, hh, c, s)
-        p_wet = p[1] < level
-        q_wet = q[1] < level
-        if p_wet and q_wet:
-            m += _segment(p[0], p[1], q[0], q[1])
-        elif p_wet != q_wet:
-            t = (level - p[1]) / (q[1] - p[1])
-            cut = ti.Vector([p[0] + t * (q[0] - p[0]), level])
-            if p_wet:
-                m += _segment(p[0], p[1], cut[0], cut[1])
-                exit_pt = cut
-            else:
-                m += _segment(cut[0], cut[1], q[0], q[1])
-                entry_pt = cut
+        a, b, wet, leaves, enters = _wet_edge(k, hw, hh, c, s, level)
+        if wet:
+            m += _segment(a[0], a[1], b[0], b[1])
+        if leaves:
+            exit_pt = b
+            crossed = 1
+        if enters:
+            entry_pt = a
             crossed = 1
     if crossed:
         m += _segment(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1])
@@ -84,30 +104,20 @@ def wetted(z, c, s, hw, hh, water_level, ux, uz):
     level = water_level - z
     area = 0.0
     second = ti.Vector([0.0, 0.0])
-    lo = 1e30
-    hi = -1e30
+    lo = FAR
+    hi = -FAR
     r3 = 0.0
     exit_pt = ti.Vector([0.0, 0.0])
     entry_pt = ti.Vector([0.0, 0.0])
     crossed = 0
     for k in ti.static(range(4)):
-        p = corner(k, hw, hh, c, s)
-        q = corner((k + 1) % 4, hw, hh, c, s)
-        p_wet = p[1] < level
-        q_wet = q[1] < level
-        a = p
-        b = q
-        wet = p_wet or q_wet
-        if p_wet != q_wet:
-            t = (level - p[1]) / (q[1] - p[1])
-            cut = ti.Vector([p[0] + t * (q[0] - p[0]), level])
+        a, b, wet, leaves, enters = _wet_edge(k, hw, hh, c, s, level)
+        if leaves:
+            exit_pt = b
             crossed = 1
-            if p_wet:
-                b = cut
-                exit_pt = cut
-            else:
-                a = cut
-                entry_pt = cut
+        if enters:
+            entry_pt = a
+            crossed = 1
         if wet:
             m = _segment(a[0], a[1], b[0], b[1])
             area += m[0]

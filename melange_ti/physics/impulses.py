@@ -17,7 +17,7 @@ reach it was searched with (a struck iceberg in a packed row), detection runs ag
 import taichi as ti
 
 from .broad import outran
-from .contacts import cross2
+from .discs import cross2
 from .forces import contact_mass
 from .schema import Acc, Body, BodyInt, Config, Contact, Counter, Param
 
@@ -96,7 +96,7 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
             a.acc[Acc.COLLISION] += dissipated
             a.acc[Acc.OFFSET] += 0.5 * jn * kick_vn
             a.acc[Acc.IMPULSE] += jn
-            a.cnt[Counter.CONTACTS] += 1  # deferred: counted by book (no atomics in the islands' loop)
+            a.cnt[Counter.IMPULSES] += 1  # deferred: counted by book (no atomics in the islands' loop)
 
 
 @ti.func

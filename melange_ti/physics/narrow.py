@@ -3,7 +3,7 @@
 Contacts are found in parallel (one body i per thread): body i's contacts with partners
 j > i go into its slots sorted by j, so the contact list does not depend on the thread
 count. A contact is kept if its gap may close within this step (speculative contacts: no
-tunnelling at any speed); the wall's contact is found by :func:`.effects.wall.detect`.
+tunnelling at any speed); the wall's contact is found by :func:`.terms.wall.detect`.
 
 **Candidate lists.** Where icebergs collide (``Config.LISTS``) each body keeps, per partner,
 the disc pairs within touching distance plus a skin, and visits only those while the pair
@@ -12,9 +12,9 @@ for less work. ``nl`` (N, :func:`list_width`, i32) holds body i's lists, one ent
 partner: the partner (:func:`list_partner`, -1: free), the count of kept runs
 (:func:`list_count`, -1: none kept) and the runs' codes (:func:`list_code`): a run is one
 disc of i, one face of j and consecutive discs of j on it (the pairs within reach of one
-disc of i on a face of j are consecutive), so one code stands for a whole row of pairs and
-a body's row is 272 bytes at 28 discs (a quarter of what one code per pair took), its
-partners and counts in the first cache line. ``nr`` holds the
+disc of i on a face of j are consecutive), so one code stands for a whole row of pairs, and
+a body's partners and counts share its first cache line (sizes and timings:
+``docs/performance.md``). ``nr`` holds the
 pose each list was made at (:data:`.schema.LIST_POSES`); ``BodyInt.NEXT_ENTRY`` is the
 entry a new partner takes (round robin).
 """
@@ -22,9 +22,10 @@ entry a new partner takes (round robin).
 import taichi as ti
 
 from .broad import cell_size, margin, reach
-from .contacts import face_line, line_window
-from .effects import wall
+from .discs import face_line, line_window
+from .numerics import FAR, TINY
 from .schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Param
+from .terms import wall
 
 # Candidate lists: partners kept per body, disc pairs kept per partner, and the skin (a
 # fraction of the smaller disc radius) added to the touching distance.
@@ -227,7 +228,7 @@ def narrow(a: ti.template(), i, j, rch, motion):
     # rch - gap for a standby contact
     near = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
     standby = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
-    gap = 1e30
+    gap = FAR
     touch2 = touch * touch
     # j's disc-centre rectangle and its disc spacing along the u- and v-faces (a face of
     # zero length holds k coincident discs: every index is then in range)
@@ -237,9 +238,9 @@ def narrow(a: ti.template(), i, j, rch, motion):
     stv = 2.0 * ivj / k
     inv_stu = 0.0
     inv_stv = 0.0
-    if stu > 1e-12 * (hwj + hhj):
+    if stu > TINY * (hwj + hhj):
         inv_stu = 1.0 / stu
-    if stv > 1e-12 * (hwj + hhj):
+    if stv > TINY * (hwj + hhj):
         inv_stv = 1.0 / stv
     # i's list entry for j, if any, and whether it still holds every pair within touch:
     # any disc of i has moved relative to j's discs by at most |dt| + |dR| bound_i since
@@ -355,7 +356,7 @@ def narrow(a: ti.template(), i, j, rch, motion):
         nx = sums[3] * cj - sums[4] * sj
         nz = sums[3] * sj + sums[4] * cj
         nn = ti.sqrt(nx * nx + nz * nz)
-        if nn <= 1e-12 * wsum:
+        if nn <= TINY * wsum:
             # symmetric overlap: the disc normals cancel; push along the centre line instead
             nx = xi - xj
             nz = zi - zj

@@ -38,9 +38,9 @@ from __future__ import annotations
 import dataclasses
 from typing import NamedTuple
 
-from .columns import Acc, Body, BodyInt, Cell, Column, Config, Contact, Counter, ListPose, Param, Scratch, Table
+from .columns import Acc, Body, BodyInt, Cell, Column, Config, Contact, Counter, E, ListPose, Param, Scratch, Table
+from .effects import REGISTRY
 
-E = "rho_w g w^3"  # energy per unit length into the page (g = rho_w = w = 1)
 LINE_COLUMNS = 8  # 64-byte cache line of f64 columns
 
 
@@ -87,10 +87,7 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
         spare += 1
         line2.append(Column(f"SPARE_{spare}", "scratch", "1", "unused: keeps the effects beyond the paper on their own line"))
     # cache lines follow from the position (8 f64 columns a line)
-    cols = [
-        Column(c.name, c.role, c.units, c.doc, c.output, k // LINE_COLUMNS, owner=c.owner)
-        for k, c in enumerate((*line0, *line1, *line2, *beyond))
-    ]
+    cols = [dataclasses.replace(c, line=k // LINE_COLUMNS) for k, c in enumerate((*line0, *line1, *line2, *beyond))]
     width = -(-len(cols) // LINE_COLUMNS) * LINE_COLUMNS
     return Table(
         "bodies",
@@ -216,7 +213,7 @@ COUNTERS = Table(
     "(Counter.SIZE,)",
     "integer counters and flags",
     (
-        Column("CONTACTS", "counter", "1", "impulses applied since t = 0", "contacts"),
+        Column("IMPULSES", "counter", "1", "impulses applied since t = 0 (per interval: the diagnostic contacts)", "contacts"),
         Column("OVERFLOW", "counter", "1", "1 if a body had more partners than slots"),
         Column("AGAIN", "counter", "1", "after an impulse pass: 2 detect again, 1 pass again, 0 done"),
         Column("ISLANDS", "counter", "1", "islands of the last detection (parallel form)"),
@@ -232,13 +229,21 @@ ACCUMULATORS = Table(
     "(Acc.SIZE,)",
     "run-wide cumulative sums since t = 0, in f64 whatever the precision",
     (
-        Column("COLLISION", "ledger", E, "energy removed by impulses, 0.5 (1 - e^2) vn^2 / K each", "collision_dissipated"),
+        Column(
+            "COLLISION",
+            "ledger",
+            E,
+            "energy removed by impulses, 0.5 (1 - e^2) vn^2 / K each",
+            "collision_dissipated",
+            budget=True,
+        ),
         Column(
             "CORRECTION",
             "ledger",
             E,
             "energy removed by overlap corrections (minus the potential energy they add)",
             "correction_work",
+            budget=True,
         ),
         Column(
             "OFFSET",
@@ -247,6 +252,8 @@ ACCUMULATORS = Table(
             "energy the impulses remove beyond their own dissipation because they act half a kick after the "
             "time the energy is taken at, J dv_kick / 2 each (-> 0 as dt -> 0)",
             "impulse_offset_work",
+            budget=True,
+            since=3,
         ),
         Column("WALL_IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of impulses from the wall", "wall_impulse"),
         Column("IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of all impulses", "impulse_sum"),
@@ -288,8 +295,6 @@ class Arrays(NamedTuple):
 
 
 def _build():
-    from .effects import REGISTRY
-
     def owned(e):
         return tuple(dataclasses.replace(c, owner=e.name) for c in e.body_columns)
 
@@ -331,5 +336,5 @@ assert sorted(BODIES.outputs("state")) == sorted(STATE_NAMES)
 CONSTANTS = tuple(BODIES.outputs("constant"))  # /icebergs: width, thickness, mass, inertia
 BODY_LEDGERS = BODIES.outputs("ledger")  # per-body ledgers, summed into a diagnostic
 ACC_LEDGERS = ACCUMULATORS.outputs("ledger")
-# energy ledgers close the budget: E(0) - E(t) = their sum
-ENERGY_LEDGERS = tuple(c.output for t in (BODIES, ACCUMULATORS) for c in t.with_role("ledger") if c.units == E)
+# energy ledgers close the budget: E(0) - E(t) = their sum (marked ``budget`` in the tables)
+ENERGY_LEDGERS = tuple(c.output for t in (BODIES, ACCUMULATORS) for c in t.columns if c.budget)

@@ -22,10 +22,13 @@ from .core import (
     parse_overrides,
 )
 from .initial import equilibrium_z
+from .keys import DENSITY_RATIO
+from .stored import stored_scene
 from .toml import dumps_toml, parse_value
 
 __all__ = [
     "CLASSES",
+    "DENSITY_RATIO",
     "EFFECTS",
     "ICEBERG_DEFAULTS",
     "Contacts",
@@ -47,4 +50,5 @@ __all__ = [
     "loads",
     "parse_overrides",
     "parse_value",
+    "stored_scene",
 ]

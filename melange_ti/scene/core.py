@@ -20,11 +20,9 @@ import tomllib
 from ..physics.effects import NAMES as EFFECTS
 from ..physics.effects import PAPER_EFFECTS, Effects, Key
 from . import keys as K
+from .errors import SceneError, error, one_line
+from .initial import Icebergs, check_geometry, from_run, generate_shelf
 from .toml import dumps_toml, parse_value
-
-
-class SceneError(ValueError):
-    """A scene that cannot be run; the message is one line naming key and value."""
 
 
 def _section_class(name: str, keys: tuple[Key, ...], namespace: dict | None = None) -> type:
@@ -56,24 +54,6 @@ INTERVALS = ("output.snapshot_interval", "output.diagnostic_interval", "output.c
 
 
 @dataclass(frozen=True)
-class Icebergs:
-    """Initial state of every iceberg, arrays of shape (N,)."""
-
-    x: np.ndarray
-    z: np.ndarray
-    theta: np.ndarray
-    vx: np.ndarray
-    vz: np.ndarray
-    omega: np.ndarray
-    width: np.ndarray
-    thickness: np.ndarray
-
-    @property
-    def count(self) -> int:
-        return int(self.x.shape[0])
-
-
-@dataclass(frozen=True)
 class Scene:
     """A validated scene. Change it with :func:`dataclasses.replace`; :func:`melange_ti.run`
     validates the changed scene again and stores it in the output exactly as run."""
@@ -92,8 +72,6 @@ class Scene:
 
     def icebergs(self) -> Icebergs:
         """The initial state: from ``[shelf]``, ``[[iceberg]]`` or ``[start]``."""
-        from .initial import from_run, generate_shelf
-
         if self.shelf is not None:
             return generate_shelf(self.shelf, self.physics, self.time.seed)
         if self.start is not None:
@@ -135,24 +113,6 @@ class Scene:
 def _get(scene: Scene, key: str) -> Any:
     section, name = key.split(".")
     return getattr(getattr(scene, section), name)
-
-
-# ---------------------------------------------------------------- one-line errors
-def _fmt(value: Any) -> str:
-    if isinstance(value, str):
-        return repr(value)
-    if isinstance(value, dict):
-        return "{...}"
-    return _one_line(str(value))
-
-
-def _one_line(text: str) -> str:
-    """``text`` with line breaks and other control characters escaped."""
-    return text if text.isprintable() else repr(text)[1:-1]
-
-
-def error(key: str, value: Any, why: str) -> SceneError:
-    return SceneError(f"{_one_line(key)} = {_fmt(value)}: {_one_line(why)}")
 
 
 def _check_type(key: str, value: Any, default: Any) -> Any:
@@ -293,16 +253,20 @@ def parse_overrides(items: list[str] | None) -> list[tuple[str, Any]]:
     return out
 
 
-def from_dict(doc: dict, overrides: list[tuple[str, Any]] | None = None, base: Path | None = None) -> Scene:
+def from_dict(
+    doc: dict, overrides: list[tuple[str, Any]] | None = None, base: Path | None = None, geometry: bool = True
+) -> Scene:
     """Validate a parsed TOML document (plus ``--set`` overrides) into a :class:`Scene`.
-    ``base``: the directory a ``[start]`` file is relative to (default: the current one)."""
+    ``base``: the directory a ``[start]`` file is relative to (default: the current one).
+    ``geometry``: also check the initial state (builds it: a ``[start]`` file is read); off
+    for a scene stored in a run file, which ran already (:func:`.stored.stored_scene`)."""
     doc = _deepcopy(doc)
     for key, value in overrides or []:
         _set_path(doc, key, value)
     for key in doc:
         if key not in K.SECTIONS:
             known = ", ".join(f"[{s}]" for s in K.SECTIONS if s != "iceberg")
-            raise SceneError(f"[{_one_line(str(key))}]: unknown section (known: {known}, [[iceberg]])")
+            raise SceneError(f"[{one_line(str(key))}]: unknown section (known: {known}, [[iceberg]])")
     head = _scene_table(doc)
     parts = {key: cls(**_table(doc, key, getattr(K, key.upper()))) for key, cls in CLASSES.items()}
     table = _iceberg_table(doc)
@@ -326,19 +290,18 @@ def from_dict(doc: dict, overrides: list[tuple[str, Any]] | None = None, base: P
         iceberg_table=table,
         start=start,
     )
-    from .initial import check_geometry
-
-    check_geometry(scene)
+    if geometry:
+        check_geometry(scene)
     return scene
 
 
-def loads(text: str, overrides: list[tuple[str, Any]] | None = None, base: Path | None = None) -> Scene:
-    """Parse and validate scene TOML text."""
+def loads(text: str, overrides: list[tuple[str, Any]] | None = None, base: Path | None = None, geometry: bool = True) -> Scene:
+    """Parse and validate scene TOML text (``geometry``: see :func:`from_dict`)."""
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"TOML syntax error: {exc}") from None
-    return from_dict(doc, overrides, base)
+    return from_dict(doc, overrides, base, geometry)
 
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"

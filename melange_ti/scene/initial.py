@@ -9,19 +9,42 @@ the model's own states keep disc overlaps far below :data:`OVERLAP_TOLERANCE` di
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..geometry import disc_local
-from .core import Icebergs, Scene, error
+from ..io.hdf5 import OutputError, SnapshotTimeError, last_snapshot
+from .errors import error
+
+if TYPE_CHECKING:
+    from .core import Scene
 
 # Refuse a start where two icebergs' discs (or a disc and the wall) overlap by more than this
 # fraction of the smaller disc radius: deeper, the first correction would throw them apart.
 OVERLAP_TOLERANCE = 0.1
 _CHUNK = 2048  # pairs whose discs are compared at once
+
+
+@dataclass(frozen=True)
+class Icebergs:
+    """Initial state of every iceberg, arrays of shape (N,)."""
+
+    x: np.ndarray
+    z: np.ndarray
+    theta: np.ndarray
+    vx: np.ndarray
+    vz: np.ndarray
+    omega: np.ndarray
+    width: np.ndarray
+    thickness: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return int(self.x.shape[0])
 
 
 def equilibrium_z(thickness: np.ndarray | float, density_ratio: float, water_level: float) -> Any:
@@ -65,24 +88,13 @@ def from_run(start) -> Icebergs:
 
 @lru_cache(maxsize=8)
 def _snapshot(path: str, time: float, stamp: int) -> Icebergs:
-    from ..io.hdf5 import OutputError, read_run
-
     try:
-        data = read_run(path)
+        snap = last_snapshot(path, time)
+    except SnapshotTimeError as exc:
+        raise error("start.time", time, str(exc)) from None
     except OutputError as exc:
         raise error("start.file", path, str(exc).split(": ", 1)[-1]) from None
-    times = data["snapshots"]["time"]
-    if times.size == 0:
-        raise error("start.file", path, "the run has no snapshot")
-    k = int(np.searchsorted(times, time + 1e-9 * max(1.0, abs(time)), side="right")) - 1
-    if k < 0:
-        raise error("start.time", time, f"before the run's first snapshot (t = {times[0]:g})")
-    snap = data["snapshots"]
-    cols = {name: np.asarray(snap[name][k], dtype=np.float64) for name in ("x", "z", "theta", "vx", "vz", "omega")}
-    bergs = data["icebergs"]
-    return Icebergs(
-        **cols, width=np.asarray(bergs["width"], dtype=np.float64), thickness=np.asarray(bergs["thickness"], dtype=np.float64)
-    )
+    return Icebergs(**{k: v for k, v in snap.items() if k != "time"})
 
 
 def _world_discs(b: Icebergs, idx: np.ndarray, local: np.ndarray) -> np.ndarray:

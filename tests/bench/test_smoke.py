@@ -3,7 +3,10 @@
 Each subcommand runs in its own process (the benchmarks initialise Taichi themselves, and the
 accuracy benchmark starts f64 and f32 worker processes), all four at once, into a temporary
 directory; the tests check the CSV columns and that the PNG files exist. Benchmarks never
-assert a speed: only that the timings are finite and positive.
+assert a speed: only that the timings are finite and positive. The four runs start four
+Taichi processes at once (and the accuracy benchmark more), so they are marked ``bench``
+and left out of the default suite: run them with ``python -m pytest -m bench`` (the
+helpers' tests below run by default).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import pytest
 
 from melange_ti.bench import accuracy, common, effects, scaling
 from melange_ti.bench.peers import PEERS_COLUMNS, have_pymunk, potential_energy, submerged_moments
+from melange_ti.scene import DENSITY_RATIO
 
 WHICH = ("scaling", "accuracy", "effects", "peers")
 COLUMNS = {"accuracy": accuracy.ACCURACY_COLUMNS, "effects": effects.EFFECTS_COLUMNS, "peers": PEERS_COLUMNS}
@@ -64,6 +68,7 @@ def _positive(rows: list[dict], key: str) -> None:
         assert math.isfinite(v) and v > 0, (key, r)
 
 
+@pytest.mark.bench
 @pytest.mark.parametrize("which", WHICH)
 def test_quick_run_writes_csv_and_png(quick_runs, which):
     out, done = quick_runs
@@ -76,6 +81,7 @@ def test_quick_run_writes_csv_and_png(quick_runs, which):
     assert png.exists() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000
 
 
+@pytest.mark.bench
 def test_quick_scaling_content(quick_runs):
     out, done = quick_runs
     assert done["scaling"][0] == 0
@@ -88,6 +94,7 @@ def test_quick_scaling_content(quick_runs):
     assert any(f["quantity"] == "ms_per_step" and math.isfinite(float(f["exponent"])) for f in fits)
 
 
+@pytest.mark.bench
 def test_quick_accuracy_content(quick_runs):
     out, done = quick_runs
     assert done["accuracy"][0] == 0, done["accuracy"][1][-3000:]
@@ -105,6 +112,7 @@ def test_quick_accuracy_content(quick_runs):
     assert (out / "accuracy_curves.csv").exists()
 
 
+@pytest.mark.bench
 def test_quick_effects_content(quick_runs):
     out, done = quick_runs
     assert done["effects"][0] == 0
@@ -113,6 +121,7 @@ def test_quick_effects_content(quick_runs):
     _positive(rows, "ms_per_step")
 
 
+@pytest.mark.bench
 def test_quick_peers_content(quick_runs):
     out, done = quick_runs
     assert done["peers"][0] == 0
@@ -127,7 +136,7 @@ def test_quick_peers_content(quick_runs):
 
 # ---------------------------------------------------------------------------- helpers, no Taichi
 def test_numpy_hydrostatics_against_closed_forms():
-    r = 0.8946
+    r = DENSITY_RATIO
     z_up = -r * 1.4 + 0.7  # upright 1 x 1.4 in equilibrium: draft r h
     a, sx, _ = submerged_moments(np.array([z_up, -10.0, 10.0]), np.array([0.0, 0.3, 0.3]), 0.5, 0.7)
     assert a == pytest.approx([r * 1.4, 1.4, 0.0], abs=1e-12)
@@ -170,7 +179,7 @@ def test_pareto_fit_and_tile():
 def test_pymunk_peer_floats_in_equilibrium():
     from melange_ti.bench.peers import PymunkMelange
 
-    r = 0.8946
+    r = DENSITY_RATIO
     z_eq = -r * 1.0 + 0.5  # the 1.4 x 1 block lying flat: stable
     st = {k: np.zeros(1) for k in ("x", "theta", "vx", "vz", "omega")}
     st.update(z=np.array([z_eq]), width=np.array([1.4]), thickness=np.array([1.0]))

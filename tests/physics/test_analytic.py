@@ -22,32 +22,17 @@ import numpy as np
 import pytest
 
 from melange_ti import diagnostics as dg
-from melange_ti import scene as scene_mod
 from melange_ti.model import Model
-from melange_ti.physics.schema import STATE_NAMES as STATE  # noqa: E402
-from melange_ti.scene import dumps_toml
+from melange_ti.scene import DENSITY_RATIO
 
+from .scenes import initial, make_scene
 
 # ---------------------------------------------------------------- helpers
-def make_scene(effects, bergs, physics=None, dt=0.01):
-    doc = {
-        "scene": {"name": "analytic", "effects": list(effects)},
-        "physics": dict(physics or {}),
-        "time": {"dt": dt, "duration": dt},
-        "output": {"snapshot_interval": dt, "diagnostic_interval": dt, "checkpoint_interval": dt},
-        "iceberg": [{k: float(v) for k, v in b.items()} for b in bergs],
-    }
-    return scene_mod.loads(dumps_toml(doc))
 
 
 def z_eq(r, h, wl=0.0):
     """Centre height of an upright block floating with draft r h."""
     return wl - r * h + 0.5 * h
-
-
-def initial(sc):
-    b = sc.icebergs()
-    return {k: np.array(getattr(b, k), dtype=float) for k in STATE}
 
 
 def one_step(m, state):
@@ -86,12 +71,12 @@ def shapes(r):
     return [(1.0, 1.0), (1.0, 0.99 * hc), (1.0, 1.01 * hc), (1.0, 1.04 * hc), (2.5, 0.6), (1.0, 1.4)]
 
 
-CASES = {"r0.8946": (0.8946, 0.0), "r0.9": (0.9, -0.3)}  # density ratio, water level
+CASES = {"r0.8946": (DENSITY_RATIO, 0.0), "r0.9": (0.9, -0.3)}  # density ratio, water level
 
 
 def gb_scene(r, wl, dt=0.01):
     bergs = [{"x": 10.0 * k, "z": z_eq(r, h, wl), "width": w, "thickness": h} for k, (w, h) in enumerate(shapes(r))]
-    return make_scene(["gravity", "buoyancy"], bergs, {"density_ratio": r, "water_level": wl}, dt)
+    return make_scene(["gravity", "buoyancy"], bergs, {"density_ratio": r, "water_level": wl}, dt=dt)
 
 
 @pytest.fixture(scope="module", params=sorted(CASES))
@@ -103,8 +88,8 @@ def gb(request):
 
 @pytest.fixture(scope="module")
 def gb_main():
-    sc = gb_scene(0.8946, 0.0)
-    return Model(sc, mode="serial"), sc, 0.8946, 0.0
+    sc = gb_scene(DENSITY_RATIO, 0.0)
+    return Model(sc, mode="serial"), sc, DENSITY_RATIO, 0.0
 
 
 # ---------------------------------------------------------------- equilibrium
@@ -217,7 +202,7 @@ def test_critical_aspect_ratio(gb):
 # ---------------------------------------------------------------- capsize energy
 def test_capsize_energy_release():
     """Upright -> flat releases 0.5 r (1-r) w h (h-w); drag dissipates exactly what is released."""
-    r = 0.8946
+    r = DENSITY_RATIO
     blocks = [(1.0, 1.4), (2.0, 2.8), (0.7, 1.5)]
     bergs = [{"x": 10.0 * k, "z": z_eq(r, h), "theta": 0.01, "width": w, "thickness": h} for k, (w, h) in enumerate(blocks)]
     sc = make_scene(["gravity", "buoyancy", "drag"], bergs, {"density_ratio": r, "drag": 0.01, "angular_drag": 0.01})
@@ -260,7 +245,7 @@ def drag_scene(dt, c=0.5, ca=0.2):
         {"x": 0.0, "z": 5.0, "vx": 2.0, "vz": -1.0, "omega": 3.0},
         {"x": 7.0, "z": -3.0, "vx": -0.25, "vz": 0.5, "omega": -1.0, "width": 2.0},
     ]
-    return make_scene(["drag"], bergs, {"drag": c, "angular_drag": ca}, dt)
+    return make_scene(["drag"], bergs, {"drag": c, "angular_drag": ca}, dt=dt)
 
 
 def test_linear_drag_exact_backward_euler():
@@ -312,7 +297,7 @@ def test_energy_conserved_without_drag():
     Bodies: a rolling/heaving square, a capsizing paper block (rolls over and over) and a
     slab with a large tilt (its corners go under water). t = 100, sampled every 0.1.
     """
-    r = 0.8946
+    r = DENSITY_RATIO
     blocks = [(1.0, 1.0), (1.0, 1.4), (2.5, 0.6)]
     bergs = [
         {"x": 10.0 * k, "z": z_eq(r, h) + 0.05, "theta": 0.3, "omega": 0.1, "width": w, "thickness": h}
@@ -320,7 +305,7 @@ def test_energy_conserved_without_drag():
     ]
     amplitude = {}
     for dt in (0.02, 0.01, 0.005):
-        sc = make_scene(["gravity", "buoyancy"], bergs, {"density_ratio": r}, dt)
+        sc = make_scene(["gravity", "buoyancy"], bergs, {"density_ratio": r}, dt=dt)
         m = Model(sc, mode="serial")
         s = m.sample()
         e0 = s["kinetic"] + s["potential"]

@@ -12,24 +12,13 @@ import math
 
 import numpy as np
 
-from melange_ti import scene as scene_mod
 from melange_ti.geometry import clipped_moments
 from melange_ti.model import Model
-from melange_ti.physics.schema import STATE_NAMES as STATE  # noqa: E402
-from melange_ti.scene import dumps_toml
+from melange_ti.scene import DENSITY_RATIO
 
-R = 0.8946
+from .scenes import initial, make_scene
 
-
-def make_scene(effects, bergs, physics=None, dt=0.01):
-    doc = {
-        "scene": {"name": "effects", "effects": list(effects)},
-        "physics": dict(physics or {}),
-        "time": {"dt": dt, "duration": dt},
-        "output": {"snapshot_interval": dt, "diagnostic_interval": dt, "checkpoint_interval": dt},
-        "iceberg": [{k: float(v) for k, v in b.items()} for b in bergs],
-    }
-    return scene_mod.loads(dumps_toml(doc))
+R = DENSITY_RATIO
 
 
 PAPER = ("gravity", "buoyancy", "drag", "collisions", "wall")  # the paper's effects (test_water.py: the others)
@@ -43,17 +32,12 @@ def z_eq(h, wl=0.0):
     return wl - R * h + 0.5 * h
 
 
-def initial(sc):
-    b = sc.icebergs()
-    return {k: np.array(getattr(b, k), dtype=float) for k in STATE}
-
-
 # ---------------------------------------------------------------- buoyancy
 def test_no_buoyancy_is_free_fall_with_drag():
     """Without buoyancy an iceberg in the water falls: v <- (v - g dt) / (1 + c dt)."""
     dt, c = 0.01, 0.3
     bergs = [{"x": 50.0, "z": z_eq(1.4), "vx": -0.4, "vz": 0.2}, {"x": 80.0, "z": 2.0, "theta": 0.3, "vx": 0.1}]
-    sc = make_scene(all_but("buoyancy"), bergs, {"density_ratio": R, "drag": c, "angular_drag": 0.05}, dt)
+    sc = make_scene(all_but("buoyancy"), bergs, {"density_ratio": R, "drag": c, "angular_drag": 0.05}, dt=dt)
     m = Model(sc)
     s0 = initial(sc)
     n = 500
@@ -86,7 +70,7 @@ def test_buoyancy_without_gravity_accelerates_up_by_area_over_mass():
         bergs.append({"x": 5.0 * k, "z": z, "theta": theta, "width": w, "thickness": h})
     bergs.append({"x": 60.0, "z": -5.0, "theta": 0.4})  # fully submerged
     bergs.append({"x": 70.0, "z": 5.0, "theta": 0.4})  # in the air
-    sc = make_scene(["buoyancy"], bergs, {"density_ratio": R}, dt)
+    sc = make_scene(["buoyancy"], bergs, {"density_ratio": R}, dt=dt)
     m = Model(sc)
     k = m.constants()
     s0 = initial(sc)
@@ -110,7 +94,7 @@ def test_only_drag_is_exponential_decay():
     """Drag only: nothing but v /= (1 + c dt) each step; v -> v0 exp(-c t) to first order."""
     dt, c, ca = 0.01, 0.2, 0.1
     bergs = [{"x": 0.0, "z": 3.0, "vx": 1.0, "vz": -2.0, "omega": 0.5}]
-    sc = make_scene(["drag"], bergs, {"drag": c, "angular_drag": ca}, dt)
+    sc = make_scene(["drag"], bergs, {"drag": c, "angular_drag": ca}, dt=dt)
     m = Model(sc)
     s0 = initial(sc)
     n = 2000
@@ -132,13 +116,13 @@ def test_no_drag_books_no_drag_work():
     bergs = [{"x": 0.6 + 1.1 * k, "z": z_eq(h), "theta": 0.0, "omega": 0.05 * (-1) ** k} for k in range(6)]
     bergs.append({"x": 60.0, "z": z_eq(h), "vx": 0.7})  # alone, floating, moving sideways
     bergs.append({"x": 2.2 + 8.0, "z": z_eq(h), "vx": -3.0})  # runs into the row
-    sc = make_scene(all_but("drag"), bergs, {"density_ratio": R, "restitution": 0.5, "drag": 0.5, "angular_drag": 0.5}, dt)
+    sc = make_scene(all_but("drag"), bergs, {"density_ratio": R, "restitution": 0.5, "drag": 0.5, "angular_drag": 0.5}, dt=dt)
     m = Model(sc)
     s0 = m.sample()
     m.advance(1500)
     s = m.sample()
     tot = m.totals()
-    assert tot.contacts > 0, "the test needs collisions"
+    assert tot.impulses > 0, "the test needs collisions"
     assert np.all(s["drag_dissipated"] == 0.0), s["drag_dissipated"]
     assert s["vx"][6] == 0.7 and s["vz"][6] == 0.0 and s["omega"][6] == 0.0
     np.testing.assert_allclose(s["x"][6], 60.0 + 1500 * dt * 0.7, rtol=1e-12)
@@ -157,7 +141,7 @@ def test_no_collisions_icebergs_pass_through_each_other():
     dt, c = 0.01, 0.01
     h = 1.4
     bergs = [{"x": 5.0, "z": z_eq(h), "vx": 1.0}, {"x": 8.0, "z": z_eq(h), "vx": -1.0}]
-    sc = make_scene(all_but("collisions"), bergs, {"density_ratio": R, "drag": c, "angular_drag": c}, dt)
+    sc = make_scene(all_but("collisions"), bergs, {"density_ratio": R, "drag": c, "angular_drag": c}, dt=dt)
     m = Model(sc)
     s0 = initial(sc)
     q = 1.0 / (1.0 + c * dt)
@@ -173,7 +157,7 @@ def test_no_collisions_icebergs_pass_through_each_other():
     assert closest < 0.1, f"the icebergs never overlapped (closest centre distance {closest})"
     assert s["x"][0] > s0["x"][1] and s["x"][1] < s0["x"][0], "they did not pass through each other"
     np.testing.assert_allclose(s["z"], s0["z"], atol=1e-12)
-    assert m.totals().contacts == 0
+    assert m.totals().impulses == 0
 
 
 # ---------------------------------------------------------------- wall
@@ -182,7 +166,7 @@ def test_no_wall_iceberg_crosses_wall_x():
     dt, c = 0.01, 0.01
     h = 1.4
     bergs = [{"x": 1.0, "z": z_eq(h), "vx": -2.0}, {"x": 20.0, "z": z_eq(h)}]
-    sc = make_scene(all_but("wall"), bergs, {"density_ratio": R, "drag": c, "angular_drag": c, "wall_x": 0.0}, dt)
+    sc = make_scene(all_but("wall"), bergs, {"density_ratio": R, "drag": c, "angular_drag": c, "wall_x": 0.0}, dt=dt)
     m = Model(sc)
     s0 = initial(sc)
     n = 200
@@ -193,5 +177,5 @@ def test_no_wall_iceberg_crosses_wall_x():
     np.testing.assert_allclose(s["x"][0], 1.0 - 2.0 * dt * q * (1 - q**n) / (1 - q), rtol=1e-12)
     bound = 0.5 * math.hypot(1.0, h)
     assert s["x"][0] + bound < 0.0, f"x = {s['x'][0]}: not entirely beyond the wall line"
-    assert m.totals().contacts == 0 and m.totals().wall_impulse == 0.0
+    assert m.totals().impulses == 0 and m.totals().wall_impulse == 0.0
     assert np.array_equal(s["x"][1], s0["x"][1])

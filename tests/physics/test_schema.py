@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from melange_ti.physics import schema
-from melange_ti.physics.columns import ROLES
+from melange_ti.physics.columns import ROLES, Column
 
 PHYSICS = Path(schema.__file__).resolve().parent
 ARRAYS = {t.array: t for t in schema.TABLES}  # "b" -> BODIES, ...
@@ -161,3 +161,13 @@ def test_parameters_come_from_scene_keys():
             continue
         section, key = c.source.split(".")
         assert hasattr(getattr(sc, section), key), c
+
+
+def test_energy_ledgers_are_marked_not_matched_by_units():
+    """The budget's terms are the columns marked ``budget`` (the test above pins them); a
+    budget column whose units are mistyped is refused when declared, not dropped."""
+    assert schema.ENERGY_LEDGERS == tuple(c.output for t in schema.TABLES for c in t.columns if c.budget)
+    with pytest.raises(ValueError, match="budget"):
+        Column("TYPO", "ledger", "rho_w g w3", "energy with mistyped units", "typo_work", budget=True)
+    with pytest.raises(ValueError, match="budget"):
+        Column("TYPO", "scratch", schema.E, "not a ledger", "typo_work", budget=True)

@@ -26,9 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
+from melange_ti.scene import DENSITY_RATIO
+
 HERE = Path(__file__).resolve().parent
 HASHES = HERE / "hashes.json"
-R = 0.8946
+R = DENSITY_RATIO
 FULL = ["gravity", "buoyancy", "drag", "collisions", "wall"]
 
 

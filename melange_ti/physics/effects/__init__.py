@@ -1,11 +1,12 @@
 """The effects a scene may name (``scene.effects``): one module each, listed in :data:`REGISTRY`.
 
 Each module declares an :class:`~.base.Effect`: its ``[physics]`` keys and their checks, its
-parameter slots, its per-iceberg columns (an energy ledger among them) and its ``@ti.func``
-terms. From the registry come the scene's keys and validation (:mod:`melange_ti.scene`), the
-parameter fill (:mod:`melange_ti.model`), the schema's columns (:mod:`..schema`), the
-diagnostics and the energy budget. To add an effect: write its module, add it here, and
-describe it in the docs.
+parameter slots, its per-iceberg columns (an energy ledger among them) and which
+``@ti.func`` terms it has, written in ``physics/terms/NAME.py`` (this package imports no
+Taichi). From the registry come the scene's keys and validation (:mod:`melange_ti.scene`),
+the parameter fill (:mod:`melange_ti.model`), the schema's columns (:mod:`..schema`), the
+diagnostics and the energy budget. To add an effect: write its declaration here and its
+terms there, add it to :data:`REGISTRY`, and describe it in the docs.
 
 The order is the order in which forces are summed, and so part of the results' bits.
 """
@@ -27,11 +28,11 @@ REGISTRY: tuple[Effect, ...] = (
 NAMES: tuple[str, ...] = tuple(e.name for e in REGISTRY)
 PAPER_EFFECTS: tuple[str, ...] = tuple(e.name for e in REGISTRY if not e.beyond_paper)  # a scene's default
 BY_NAME = {e.name: e for e in REGISTRY}
-FORCES = tuple(e for e in REGISTRY if e.force is not None)
-DAMPERS = tuple(e for e in REGISTRY if e.damp is not None)
-ADDED = tuple(e for e in REGISTRY if e.added_inertia is not None)
-POST_DRIFT = tuple(e for e in REGISTRY if e.post_drift is not None)
-POTENTIALS = tuple(e for e in REGISTRY if e.potential is not None)
+FORCES = tuple(e for e in REGISTRY if "force" in e.terms)
+DAMPERS = tuple(e for e in REGISTRY if "damp" in e.terms)
+ADDED = tuple(e for e in REGISTRY if "added_inertia" in e.terms)
+POST_DRIFT = tuple(e for e in REGISTRY if "post_drift" in e.terms)
+POTENTIALS = tuple(e for e in REGISTRY if "potential" in e.terms)
 
 
 def _contacts(self) -> bool:

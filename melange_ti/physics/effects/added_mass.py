@@ -17,42 +17,8 @@ change of ``m_a`` and ``I_a`` over the step) in ``added_mass_work``, so the budg
 ``E(0) - E(t) = drag + collisions + corrections + added_mass_work`` still closes.
 """
 
-import taichi as ti
-
-from ..columns import Body, Column, Param
-from ..hydrostatics import wetted
+from ..columns import Column, E
 from .base import Effect, Key
-
-E = "rho_w g w^3"
-
-
-@ti.func
-def _added(a: ti.template(), i):
-    b = ti.static(a.b)
-    w = wetted(
-        b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN], 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], a.par[Param.WATER], 1.0, 0.0
-    )
-    return ti.Vector([a.par[Param.ADDED_MASS] * w[0], a.par[Param.ADDED_INERTIA] * w[1]])
-
-
-@ti.func
-def added_inertia(a: ti.template(), i):
-    """m_a, I_a at the current pose; kept for the rest of the step (contacts, correction)."""
-    extra = _added(a, i)
-    a.b[i, Body.ADDED_M] = extra[0]
-    a.b[i, Body.ADDED_I] = extra[1]
-    return extra
-
-
-@ti.func
-def post_drift(a: ti.template(), i):
-    """Book the energy exchanged as m_a and I_a changed over the step."""
-    b = ti.static(a.b)
-    now = _added(a, i)
-    v2 = b[i, Body.VX] ** 2 + b[i, Body.VZ] ** 2
-    om2 = b[i, Body.OM] ** 2
-    b[i, Body.ADDED_WORK] -= 0.5 * (now[0] - b[i, Body.ADDED_M]) * v2 + 0.5 * (now[1] - b[i, Body.ADDED_I]) * om2
-
 
 EFFECT = Effect(
     name="added_mass",
@@ -88,9 +54,10 @@ EFFECT = Effect(
             E,
             "energy the added mass exchanged with the ocean as it changed, -0.5 dm_a |v|^2 - 0.5 dI_a omega^2",
             "added_mass_work",
+            budget=True,
+            since=3,
         ),
     ),
-    added_inertia=added_inertia,
-    post_drift=post_drift,
+    terms=("added_inertia", "post_drift"),
     beyond_paper=True,
 )

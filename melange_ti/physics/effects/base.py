@@ -1,7 +1,13 @@
-"""What an effect declares: its scene keys, parameter slots, per-body columns and terms."""
+"""What an effect declares: its scene keys, parameter slots, per-body columns and terms.
+
+A declaration imports no Taichi, so the scene, the schema and the run-file readers built
+from it work where Taichi is not installed; the terms are ``@ti.func``s in
+:mod:`melange_ti.physics.terms` (``terms/NAME.py``), imported when a kernel first asks.
+"""
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -30,8 +36,9 @@ class Effect:
     a scene can switch an effect on and off without editing values); ``params``: its slots
     in ``par`` (each with the ``source`` key it is filled from); ``body_columns``: its
     per-iceberg columns in ``b`` (a ``ledger`` column with an ``output`` name is summed into
-    that diagnostic, checkpointed and booked in the energy budget); and its terms, each a
-    ``@ti.func`` or ``None``:
+    that diagnostic and checkpointed; marked ``budget``, it is booked in the energy budget);
+    ``terms``: which of :data:`TERMS` it has, each a ``@ti.func`` of that name in
+    ``melange_ti/physics/terms/NAME.py`` (read as ``effect.force`` etc.; ``None`` when absent):
 
     ``force(a, i) -> ti.Vector([f_z, tau])``  body force and torque on iceberg i
     ``torque``                                 True if ``force`` has a torque component
@@ -56,14 +63,30 @@ class Effect:
     keys: tuple[Key, ...] = ()
     params: tuple[Column, ...] = ()
     body_columns: tuple[Column, ...] = ()
-    force: Callable | None = None
+    terms: tuple[str, ...] = ()
     torque: bool = False
-    added_inertia: Callable | None = None
-    damp: Callable | None = None
-    post_drift: Callable | None = None
-    potential: Callable | None = None
     beyond_paper: bool = False
+
+    def __post_init__(self):
+        unknown = set(self.terms) - set(TERMS)
+        if unknown:
+            raise ValueError(f"effect {self.name}: unknown terms {sorted(unknown)} (known: {', '.join(TERMS)})")
 
     def on(self, fx) -> bool:
         """Whether the frozen effect set ``fx`` names this effect (use inside ``ti.static``)."""
         return bool(getattr(fx, self.name))
+
+    def term(self, which: str) -> Callable | None:
+        """The ``@ti.func`` ``which`` of this effect (imports Taichi), or ``None``."""
+        if which not in self.terms:
+            return None
+        return getattr(importlib.import_module(f"melange_ti.physics.terms.{self.name}"), which)
+
+    force = property(lambda self: self.term("force"))
+    added_inertia = property(lambda self: self.term("added_inertia"))
+    damp = property(lambda self: self.term("damp"))
+    post_drift = property(lambda self: self.term("post_drift"))
+    potential = property(lambda self: self.term("potential"))
+
+
+TERMS = ("force", "added_inertia", "damp", "post_drift", "potential")

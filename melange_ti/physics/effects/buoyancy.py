@@ -1,39 +1,10 @@
 """Buoyancy: the exact hydrostatic force and torque of the submerged part (:mod:`..hydrostatics`)."""
 
-import taichi as ti
-
-from ..columns import Body, Param
-from ..hydrostatics import submerged_moments
 from .base import Effect
-
-
-@ti.func
-def _moments(a: ti.template(), i):
-    b = ti.static(a.b)
-    return submerged_moments(
-        b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN], 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], a.par[Param.WATER]
-    )
-
-
-@ti.func
-def force(a: ti.template(), i):
-    """``rho_w g A`` upward at the submerged centroid: force ``A``, torque ``Sx`` about the
-    centre of mass (g = rho_w = 1)."""
-    mo = _moments(a, i)
-    return ti.Vector([mo[0], mo[1]])
-
-
-@ti.func
-def potential(a: ti.template(), i):
-    """``-rho_w g int_sub (z - water_level) dA``."""
-    mo = _moments(a, i)
-    return -(mo[2] + mo[0] * (a.b[i, Body.Z] - a.par[Param.WATER]))
-
 
 EFFECT = Effect(
     name="buoyancy",
     doc="exact hydrostatic force and torque of the submerged part of the rectangle under a flat sea surface",
-    force=force,
     torque=True,
-    potential=potential,
+    terms=("force", "potential"),
 )

@@ -15,33 +15,8 @@ step times while ``P`` is constant. ``m`` and ``I`` include the water's added in
 ``added_mass`` is on. The kinetic energy removed is booked in ``drag_dissipated``.
 """
 
-import taichi as ti
-
-from ..columns import Body, Column, Param
-from ..hydrostatics import wetted
+from ..columns import Column
 from .base import Effect, Key
-
-
-@ti.func
-def damp(a: ti.template(), i, m, inertia):
-    b = ti.static(a.b)
-    dt = a.par[Param.DT]
-    vx, vz, om = b[i, Body.VX], b[i, Body.VZ], b[i, Body.OM]
-    speed = ti.sqrt(vx * vx + vz * vz)
-    ux, uz = 1.0, 0.0  # the direction normal to v (any, at rest)
-    if speed > 0:
-        ux, uz = -vz / speed, vx / speed
-    w = wetted(
-        b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN], 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], a.par[Param.WATER], ux, uz
-    )
-    half_cd = 0.5 * a.par[Param.FORM_DRAG]
-    lin = 1.0 / (1.0 + half_cd * w[2] / m * speed * dt)
-    ang = 1.0 / (1.0 + half_cd * w[3] / inertia * ti.abs(om) * dt)
-    b[i, Body.VX] = vx * lin
-    b[i, Body.VZ] = vz * lin
-    b[i, Body.OM] = om * ang
-    b[i, Body.DRAG_WORK] += 0.5 * m * speed * speed * (1.0 - lin * lin) + 0.5 * inertia * om * om * (1.0 - ang * ang)
-
 
 EFFECT = Effect(
     name="form_drag",
@@ -58,6 +33,6 @@ EFFECT = Effect(
         ),
     ),
     params=(Column("FORM_DRAG", "constant", "1", "pressure drag coefficient C_d", source="physics.form_drag"),),
-    damp=damp,
+    terms=("damp",),
     beyond_paper=True,
 )

@@ -4,62 +4,8 @@
 Its contact is found here (:func:`detect`), one per iceberg, from the discs within reach;
 the impulse pass and the correction visit it before the body's partners."""
 
-import taichi as ti
-
-from ..broad import margin, reach
-from ..columns import Body, BodyInt, Column, Config, Param
-from ..contacts import disc_local, to_world
+from ..columns import Column
 from .base import Effect, Key
-
-
-@ti.func
-def gap(a: ti.template(), i):
-    """Smallest gap between body i's discs and the wall at the current position."""
-    b = ti.static(a.b)
-    k = ti.cast(a.cfg[Config.K], ti.i32)
-    c, s = b[i, Body.COS], b[i, Body.SIN]
-    hw, hh, r = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], b[i, Body.RADIUS]
-    g = 1e30
-    for d in range(ti.cast(a.cfg[Config.DISCS], ti.i32)):
-        pa = to_world(disc_local(d, k, hw, hh, r), b[i, Body.X], b[i, Body.Z], c, s)
-        g = ti.min(g, pa[0] - r - a.par[Param.WALL_X])
-    return g
-
-
-@ti.func
-def detect(a: ti.template(), i):
-    """Body i's wall contact, if a disc is within its reach: the contact height is the
-    mean of the discs' heights weighted by ``motion - gap`` (or ``reach - gap`` for a
-    standby contact), as for a pair (:func:`..narrow.narrow`)."""
-    b = ti.static(a.b)
-    c, s = b[i, Body.COS], b[i, Body.SIN]
-    hw, hh, r = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], b[i, Body.RADIUS]
-    rch = reach(a, i, margin(a))
-    motion = b[i, Body.MOTION]
-    wall_x = a.par[Param.WALL_X]
-    a.bi[i, BodyInt.WALL_ON] = 0
-    if b[i, Body.X] - b[i, Body.BOUND] - rch < wall_x:
-        k = ti.cast(a.cfg[Config.K], ti.i32)
-        wsum = 0.0
-        pz = 0.0
-        wsum2 = 0.0
-        pz2 = 0.0
-        g_min = 1e30
-        for d in range(ti.cast(a.cfg[Config.DISCS], ti.i32)):
-            pa = to_world(disc_local(d, k, hw, hh, r), b[i, Body.X], b[i, Body.Z], c, s)
-            g = pa[0] - r - wall_x
-            if g < rch:
-                if g < motion:
-                    wsum += motion - g
-                    pz += (motion - g) * pa[1]
-                wsum2 += rch - g
-                pz2 += (rch - g) * pa[1]
-                g_min = ti.min(g_min, g)
-        if g_min < rch:
-            a.bi[i, BodyInt.WALL_ON] = 1
-            b[i, Body.WALL_PZ] = pz / wsum if wsum > 0 else pz2 / wsum2
-            b[i, Body.WALL_GAP] = g_min
-
 
 EFFECT = Effect(
     name="wall",

@@ -8,6 +8,8 @@ spacing on the longest face is exactly ``2 radius`` (see :func:`melange_ti.geome
 
 import taichi as ti
 
+from .numerics import TINY
+
 
 @ti.func
 def disc_local(a, k, hw, hh, r):
@@ -68,7 +70,7 @@ def line_window(a0, d, limit, lo, hi):
     slack: callers still test each point exactly)."""
     lo_out = lo
     hi_out = hi
-    slack = 1e-9 * (limit + ti.abs(a0)) + 1e-12
+    slack = 1e-9 * (limit + ti.abs(a0)) + TINY
     if ti.abs(d) > 1e-300:
         inv = 1.0 / d
         t1 = (-limit - slack - a0) * inv

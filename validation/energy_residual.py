@@ -1,10 +1,11 @@
 """Energy-budget residual of the paper scene against dt (SPEC section 5: it must shrink).
 
-    python benchmarks/energy_residual.py [--count 100] [--time 200] [--out benchmarks/results]
+    python validation/energy_residual.py [--count 100] [--time 200] [--out validation/results]
 
 Runs the paper scene (``shelf.count`` icebergs) for ``--time`` time units at dt = 0.02, 0.01,
 0.005, 0.0025 and writes ``energy_residual.csv``: released energy E(0) - E(t), the booked
-dissipation (drag + collisions + corrections) and the residual between them.
+dissipation (every energy ledger of the budget, ``diagnostics.ENERGY_LEDGERS``) and the residual
+between them.
 """
 
 import argparse
@@ -13,13 +14,14 @@ from pathlib import Path
 
 from melange_ti import runtime
 from melange_ti import scene as scn
+from melange_ti.diagnostics import ENERGY_LEDGERS
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--count", type=int, default=100)
     p.add_argument("--time", type=float, default=200.0)
-    p.add_argument("--out", default="benchmarks/results")
+    p.add_argument("--out", default="validation/results")
     a = p.parse_args()
     runtime.init("cpu", threads=1)
     from melange_ti.model import Model
@@ -34,7 +36,7 @@ def main() -> None:
         s = m.sample()
         tot = m.totals()
         released = e0 - (s["kinetic"].sum() + s["potential"].sum())
-        booked = s["drag_dissipated"].sum() + tot.collision_dissipated + tot.correction_work
+        booked = sum(float(s[k].sum()) if k in s else getattr(tot, k) for k in ENERGY_LEDGERS)
         rows.append(
             {
                 "dt": dt,

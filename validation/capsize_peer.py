@@ -1,7 +1,7 @@
 """The paper scene's capsize curve from an independent engine (pymunk), next to melange_ti's.
 
-    python benchmarks/capsize_peer.py RUN.h5 [RUN.h5 ...] [--seeds 1 2] [--time 8000]
-                                      [--out benchmarks/results]
+    python validation/capsize_peer.py RUN.h5 [RUN.h5 ...] [--seeds 1 2] [--time 8000]
+                                      [--out validation/results]
 
 Runs the bundled paper scene (same scene file, same seeded initial state) with the pymunk
 (Chipmunk2D) peer of ``melange-ti bench peers`` -- exact polygons instead of discs, its own
@@ -25,28 +25,14 @@ import numpy as np
 
 from melange_ti import scene as scn
 from melange_ti.bench.peers import PymunkMelange
-
-
-def capsized(theta: np.ndarray) -> float:
-    m = np.abs(theta) % np.pi
-    return float(np.mean(np.minimum(m, np.pi - m) >= np.pi / 4))
+from melange_ti.diagnostics import capsized_fraction
 
 
 def pymunk_curve(seed: int, duration: float, every: float = 100.0) -> list[dict]:
     sc = scn.load(None, [("time.seed", seed)])
     ib = sc.icebergs()
     state = {k: getattr(ib, k) for k in ("x", "z", "theta", "vx", "vz", "omega", "width", "thickness")}
-    p = sc.physics
-    peer = PymunkMelange(
-        state,
-        density_ratio=p.density_ratio,
-        restitution=p.restitution,
-        drag=p.drag,
-        angular_drag=p.angular_drag,
-        water_level=p.water_level,
-        wall_x=p.wall_x,
-        dt=sc.time.dt,
-    )
+    peer = PymunkMelange.for_scene(state, sc)
     x0 = float(np.max(state["x"]))
     steps = round(every / sc.time.dt)
     rows = []
@@ -59,7 +45,7 @@ def pymunk_curve(seed: int, duration: float, every: float = 100.0) -> list[dict]
                 "engine": "pymunk",
                 "seed": seed,
                 "t": k * every,
-                "capsized_fraction": capsized(s["theta"]),
+                "capsized_fraction": capsized_fraction(s["theta"]),
                 "leading_edge": float(s["x"].max()) - x0,
             }
         )
@@ -94,7 +80,7 @@ def main() -> None:
     ap.add_argument("runs", nargs="*", type=Path, help="melange_ti HDF5 runs of the paper scene")
     ap.add_argument("--seeds", type=int, nargs="+", default=[1])
     ap.add_argument("--time", type=float, default=8000.0)
-    ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
+    ap.add_argument("--out", type=Path, default=Path("validation/results"))
     a = ap.parse_args()
     rows = []
     for path in a.runs:

@@ -1,6 +1,6 @@
 """Largest stable dt of the paper scene: run it at growing dt and watch for blow-up.
 
-    python benchmarks/stability.py [--count 100] [--time 400]
+    python validation/stability.py [--count 100] [--time 400]
 
 For each dt the paper scene (``shelf.count`` icebergs) runs ``--time`` time units; it is
 stable if the state stays finite and the total energy never rises above its start.

@@ -1,0 +1,16 @@
+"""The ``@ti.func`` terms of the gravity effect (declared, with its physics, in :mod:`..effects.gravity`)."""
+
+import taichi as ti
+
+from ..columns import Body, Param
+
+
+@ti.func
+def force(a: ti.template(), i):
+    return ti.Vector([-a.b[i, Body.MASS], 0.0])
+
+
+@ti.func
+def potential(a: ti.template(), i):
+    """``m g (z_G - water_level)``: measured from the sea surface (docs/model.md)."""
+    return a.b[i, Body.MASS] * (a.b[i, Body.Z] - a.par[Param.WATER])

@@ -1,0 +1,141 @@
+"""Reading run files needs neither Taichi nor the files a run began from.
+
+Analysing runs on a laptop without Taichi must work (the reading path: io.hdf5, the scene,
+the diagnostics table and the figures import no Taichi), and a run begun from another
+file's snapshot (``[start]``) is plotted and resumed from its own file after that one moved.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+from melange_ti import cli, scene
+from melange_ti.io.checkpoint import checkpoint_path
+from melange_ti.simulation import Simulation
+
+SECTIONS = {
+    "scene": {"name": "reading", "effects": ["gravity", "buoyancy", "drag", "collisions", "wall"]},
+    "contacts": {"discs": 12},
+    "time": {"dt": 0.01, "duration": 2.0, "seed": 3},
+    "output": {"snapshot_interval": 0.5, "diagnostic_interval": 0.1, "checkpoint_interval": 1.0},
+}
+SHELF = {"count": 4, "width": 1.0, "thickness": 1.4, "gap": 0.1, "tilt": 0.01}
+THREADS = os.environ.get("MELANGE_TEST_THREADS", "2")  # the session's: --threads would re-initialise Taichi otherwise
+
+
+class _Stop(Exception):
+    pass
+
+
+def _run(text: str, where, out, stop_at: int | None = None):
+    path = where / f"{out}.toml"
+    path.write_text(text)
+
+    def stop(step):
+        if step == stop_at:
+            raise _Stop
+
+    sim = Simulation(scene.load(path), where / f"{out}.h5", progress=False, on_event=stop)
+    if stop_at is None:
+        sim.run()
+    else:
+        with pytest.raises(_Stop):
+            sim.run()
+    return where / f"{out}.h5"
+
+
+NO_TAICHI = """
+import sys
+
+class NoTaichi:
+    def find_spec(self, name, path=None, target=None):
+        if name == "taichi" or name.startswith("taichi."):
+            raise ModuleNotFoundError("No module named 'taichi' (blocked by the test)")
+
+sys.meta_path.insert(0, NoTaichi())
+path, figures = sys.argv[1], sys.argv[2]
+import melange_ti as mt
+from melange_ti import cli, diagnostics
+from melange_ti.io.hdf5 import read_run
+from melange_ti.scene import stored_scene
+
+data = read_run(path)
+assert stored_scene(path, data).shelf.count == 4
+with mt.open_run(path) as tree:
+    assert tree["diagnostics"]["capsized_fraction"].size == data["diagnostics"]["time"].size
+assert cli.main(["plot", path, "--out", figures]) == 0
+assert cli.main(["render", path, "--out", figures + "_frames"]) == 0
+assert "taichi" not in sys.modules, "Taichi was imported"
+print("read without Taichi")
+"""
+
+
+def test_reading_and_plotting_import_no_taichi(tmp_path):
+    run = _run(scene.dumps_toml({**SECTIONS, "shelf": SHELF}), tmp_path, "a")
+    proc = subprocess.run(
+        [sys.executable, "-c", NO_TAICHI, str(run), str(tmp_path / "figures")], capture_output=True, text=True, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "read without Taichi" in proc.stdout
+    assert any((tmp_path / "figures").glob("*.png")) and any((tmp_path / "figures_frames").glob("*.png"))
+
+
+def test_run_begun_from_another_file_survives_moving_it(tmp_path):
+    first = _run(scene.dumps_toml({**SECTIONS, "shelf": SHELF}), tmp_path, "first")
+    text = scene.dumps_toml({**SECTIONS, "start": {"file": first.name, "time": 2.0}})
+    reference = _run(text, tmp_path, "reference")
+    cut = _run(text, tmp_path, "cut", stop_at=150)  # a checkpoint at step 100, then stopped
+    assert checkpoint_path(cut).exists()
+    first.rename(tmp_path / "moved.h5")
+
+    assert cli.main(["plot", str(cut), "--out", str(tmp_path / "figures")]) == 0
+    assert cli.main(["run", "--resume", "--out", str(cut), "--threads", THREADS]) == 0
+    with h5py.File(reference, "r") as fr, h5py.File(cut, "r") as fc:
+        for group in ("icebergs", "snapshots", "diagnostics"):
+            for name in fr[group]:
+                assert np.array_equal(fr[group][name][:], fc[group][name][:]), f"{group}/{name}"
+        assert bool(fc.attrs["complete"])
+
+
+# ---------------------------------------------------------------- older formats
+def test_every_diagnostic_is_written_and_none_claims_a_future_format(tmp_path):
+    from melange_ti import diagnostics
+    from melange_ti.io.hdf5 import FORMAT_VERSION, read_run
+
+    run = _run(scene.dumps_toml({**SECTIONS, "shelf": SHELF}), tmp_path, "a")
+    data = read_run(run)
+    assert data["attrs"]["format_version"] == FORMAT_VERSION
+    assert set(data["diagnostics"]) == {"time", *diagnostics.NAMES}
+    assert all(1 <= f.since <= FORMAT_VERSION for f in diagnostics.FIELDS)
+    assert diagnostics.required(FORMAT_VERSION) == ("time", *diagnostics.NAMES)
+
+
+def test_plot_reads_files_older_than_each_diagnostic(tmp_path):
+    """A file of the format before a diagnostic appeared lacks it and still plots; a file of
+    the current format that lacks it is refused in one line."""
+    import shutil
+
+    from melange_ti import diagnostics
+
+    run = _run(scene.dumps_toml({**SECTIONS, "shelf": SHELF}), tmp_path, "a")
+    newer = [f for f in diagnostics.FIELDS if f.since > 1]
+    assert {"impulse_offset_work", "contacts"} <= {f.name for f in newer}
+    for f in newer:
+        old = tmp_path / f"without_{f.name}.h5"
+        shutil.copy(run, old)
+        with h5py.File(old, "r+") as h:
+            del h["diagnostics"][f.name]
+            h.attrs["format_version"] = f.since - 1
+        assert cli.main(["plot", str(old), "--out", str(tmp_path / f"figures_{f.name}")]) == 0, f.name
+        with h5py.File(old, "r+") as h:
+            h.attrs["format_version"] = f.since
+        with pytest.raises(Exception, match=f"missing {f.name}"):
+            from melange_ti.analysis.runs import load_run
+
+            load_run(old)
