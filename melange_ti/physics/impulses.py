@@ -169,7 +169,7 @@ def book_one(a: ti.template(), s, i, wall: ti.template()):
         a.acc[Acc.COLLISION] += cd[s, i, Contact.DEF_COLLISION]
         a.acc[Acc.OFFSET] += cd[s, i, Contact.DEF_OFFSET]
         a.acc[Acc.IMPULSE] += jn
-        a.cnt[Counter.CONTACTS] += 1
+        a.cnt[Counter.IMPULSES] += 1
         cd[s, i, Contact.DEF_IMPULSE] = 0.0
 
 
