@@ -28,7 +28,7 @@ def main(arch: str, out: str) -> None:
         for k, v in m.state().items():
             result[f"{int(islands)}_{k}"] = v
         t = m.totals()
-        result[f"{int(islands)}_totals"] = np.array([t.collision_dissipated, t.correction_work, t.impulse_sum, t.contacts])
+        result[f"{int(islands)}_totals"] = np.array([t.collision_dissipated, t.correction_work, t.impulse_sum, t.impulses])
     np.savez(out, **result)
 
 
