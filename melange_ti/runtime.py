@@ -141,6 +141,13 @@ def backend() -> str | None:
     return None if _current is None else _current[1]
 
 
+def arch_family(backend: str) -> str:
+    """What a run file's ``arch`` attribute says for a backend: ``"cpu"`` for Taichi's CPU
+    backends (``"x64"``, ``"arm64"``; the file's ``taichi_arch`` names which), else the
+    device backend's own name (``"vulkan"``, ``"cuda"``, ``"metal"``, ...)."""
+    return "cpu" if backend in CPU_ARCHS else backend
+
+
 def kernels_stamp(key: str) -> Path | None:
     """A marker beside Taichi's offline cache for kernels compiled once for ``key`` (the
     effect set, precision, kernel form and the physics sources): present, the next run loads

@@ -369,7 +369,8 @@ class Simulation:
                 SCENE_ATTR: scene.to_toml(),
                 "melange_ti_version": __version__,
                 "taichi_version": ".".join(map(str, ti.__version__)),
-                "arch": self.backend,
+                "arch": runtime.arch_family(self.backend),
+                "taichi_arch": self.backend,
                 "precision": scene.precision,
                 "seed": scene.time.seed,
             }

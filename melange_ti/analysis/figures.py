@@ -40,8 +40,8 @@ import numpy as np  # noqa: E402
 
 from ..diagnostics import ENERGY_LEDGERS  # noqa: E402
 from ..errors import RunError  # noqa: E402
-from ..io.hdf5 import OutputError, is_partial, read_run, stored_scene  # noqa: E402
-from ..scene import SceneError  # noqa: E402
+from ..io.hdf5 import OutputError, is_partial, read_run  # noqa: E402
+from ..scene import SceneError, stored_scene  # noqa: E402
 from . import stats  # noqa: E402
 from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners  # noqa: E402
 from .runs import (  # noqa: E402, F401 (load_run and parse_times are part of this module's interface)
