@@ -33,7 +33,6 @@ from .physics.schema import (
     CELLS,
     CONFIG,
     CONSTANTS,
-    CONTACTS,
     COUNTERS,
     LIST_POSES,
     PARAMS,
@@ -45,6 +44,7 @@ from .physics.schema import (
     Counter,
     Param,
     body_width,
+    contact_width,
 )
 from .scene import Icebergs, Scene
 
@@ -75,6 +75,7 @@ class Totals:
     impulse_offset_work: float
     wall_impulse: float
     impulse_sum: float
+    friction_dissipated: float
     impulses: int
 
 
@@ -135,7 +136,8 @@ class Model:
         self.arrays = Arrays(
             b=ti.ndarray(self.real, shape=(n, body_width(self.fx))),
             bi=alloc(BODY_INTS, n),
-            cd=alloc(CONTACTS, slots + 1, nc),  # slot `slots`: the wall contact's deferred terms (islands)
+            # slot `slots`: the wall contact's deferred terms (islands)
+            cd=ti.ndarray(self.real, shape=(slots + 1, nc, contact_width(self.fx))),
             cp=ti.ndarray(ti.i32, shape=(slots, nc)),
             nl=ti.ndarray(ti.i32, shape=(nlists, narrow.list_width(scene.contacts.discs // 4))),
             nr=alloc(LIST_POSES, nlists, narrow.ENTRIES),
@@ -275,7 +277,10 @@ class Model:
             if col < rows.shape[1]:
                 rows[:, col] = acc[name]
         self.arrays.b.from_numpy(rows)
-        self.arrays.acc.from_numpy(np.asarray(acc["acc"], dtype=np.float64))
+        stored_acc = np.asarray(acc["acc"], dtype=np.float64)[: ACCUMULATORS.size]
+        acc_rows = np.zeros(ACCUMULATORS.size)
+        acc_rows[: stored_acc.size] = stored_acc  # a checkpoint from before a ledger was added
+        self.arrays.acc.from_numpy(acc_rows)
         counters = np.zeros(COUNTERS.size, dtype=np.int64)
         stored = np.asarray(acc["counters"], dtype=np.int64)[: COUNTERS.size]
         counters[: stored.size] = stored  # a checkpoint from before a counter was added

@@ -200,9 +200,9 @@ def test_hard_case_on_vulkan_within_the_models_own_rounding_sensitivity(device_r
 @pytest.mark.gpu
 @needs_vulkan
 def test_every_effect_on_vulkan_matches_the_cpu(tmp_path):
-    """form_drag and added_mass (and the rest) in one scene, f64, against the CPU."""
+    """form_drag, added_mass and friction (and the rest) in one scene, f64, against the CPU."""
     text = (
-        '[scene]\neffects = ["gravity", "buoyancy", "drag", "form_drag", "added_mass", "collisions", "wall"]\n'
+        '[scene]\neffects = ["gravity", "buoyancy", "drag", "form_drag", "added_mass", "collisions", "wall", "friction"]\n'
         "[shelf]\ncount = 12\ngap = 0.35\ntilt = 0.3\n[time]\ndt = 0.02\nduration = 4.0\n"
         "[output]\nsnapshot_interval = 1.0\ndiagnostic_interval = 0.2\n"
     )

@@ -32,12 +32,13 @@ from ..diagnostics import FIELDS
 from ..physics.schema import BODIES
 from ..physics.schema import STATE_NAMES as STATE
 
+# 4: friction_dissipated (the friction effect's ledger, 0 without it), the taichi_arch attribute;
 # 3: every diagnostic of diagnostics.FIELDS with since <= 3 (contacts, wall_force,
 # impulse_rate, impulse_offset_work, added_mass_work were added during version 2);
 # 2: self-describing as netCDF-4 (dimension scales, units and long_name on every variable,
 # global attributes); 1: plain HDF5 (still read). A diagnostic added later carries the next
 # version as its ``since``, and the figures read the older files without it.
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 SCENE_ATTR = "scene_toml"  # root attribute: the resolved scene, as run (TOML text)
 COMPLETE_ATTR = "complete"  # root attribute: True once the run reached its end
 DIAGNOSTICS = tuple(f.name for f in FIELDS)

@@ -35,7 +35,7 @@ from .schema import Acc, Body, BodyInt, Cell, Config, Contact, Counter
 
 BLOCK_BITS = 8
 BLOCK = 1 << BLOCK_BITS
-RED_WIDTH = 5  # partial sums per block: the impulses' four ledgers and their count
+RED_WIDTH = 6  # partial sums per block: the impulses' four ledgers, their count, friction's ledger
 
 
 def red_rows(n: int, ncells: int) -> int:
@@ -213,7 +213,7 @@ def impulse_sums(fx: ti.template(), a: ti.template()):
     cd = ti.static(a.cd)
     n = a.bi.shape[0]
     for blk in range(blocks(n)):
-        col, off, wal, imp = zero64(), zero64(), zero64(), zero64()
+        col, off, wal, imp, fri = zero64(), zero64(), zero64(), zero64(), zero64()
         count = 0
         for i in range(blk * BLOCK, ti.min(n, (blk + 1) * BLOCK)):
             first, last = contact_range(fx, a, i)
@@ -228,6 +228,8 @@ def impulse_sums(fx: ti.template(), a: ti.template()):
                     col += cd[s, i, Contact.DEF_COLLISION]
                     off += cd[s, i, Contact.DEF_OFFSET]
                     imp += jn
+                    if ti.static(fx.friction):
+                        fri += cd[s, i, Contact.DEF_FRICTION]
                     count += 1
                     cd[s, i, Contact.DEF_IMPULSE] = 0.0
         a.red[blk, 0] = col
@@ -235,11 +237,12 @@ def impulse_sums(fx: ti.template(), a: ti.template()):
         a.red[blk, 2] = wal
         a.red[blk, 3] = imp
         a.red[blk, 4] = ti.cast(count, ti.f64)
+        a.red[blk, 5] = fri
 
 
 @ti.func
 def impulse_total(fx: ti.template(), a: ti.template()):
-    col, off, wal, imp = zero64(), zero64(), zero64(), zero64()
+    col, off, wal, imp, fri = zero64(), zero64(), zero64(), zero64(), zero64()
     count = ti.cast(0, ti.i64)
     for blk in range(blocks(a.bi.shape[0])):
         col += a.red[blk, 0]
@@ -247,11 +250,15 @@ def impulse_total(fx: ti.template(), a: ti.template()):
         wal += a.red[blk, 2]
         imp += a.red[blk, 3]
         count += ti.cast(a.red[blk, 4], ti.i64)
+        if ti.static(fx.friction):
+            fri += a.red[blk, 5]
     a.cnt[Counter.IMPULSES] += count
     a.acc[Acc.COLLISION] += col
     a.acc[Acc.OFFSET] += off
     a.acc[Acc.WALL_IMPULSE] += wal
     a.acc[Acc.IMPULSE] += imp
+    if ti.static(fx.friction):
+        a.acc[Acc.FRICTION] += fri
 
 
 @ti.func

@@ -46,6 +46,37 @@ def normal_speed(a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz):
 
 
 @ti.func
+def pair_mass(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, dx, dz):
+    """The pair's inverse effective mass along the unit direction ``d`` at the contact,
+    ``K = 1/m_1 + 1/m_2 + (r_1 x d)^2 / I_1 + (r_2 x d)^2 / I_2`` (j < 0: the wall, infinite
+    mass), with what :func:`push` needs: ``(K, m_1, I_1, r_1 x d, m_2, I_2, r_2 x d)``."""
+    d = ti.Vector([dx, dz])
+    c1 = cross2(ti.Vector([rx1, rz1]), d)
+    m1, inv1, i1 = contact_mass(fx, a, i)
+    k = inv1 + c1 * c1 / i1
+    c2 = 0.0
+    m2, i2 = 1.0, 1.0
+    if j >= 0:
+        c2 = cross2(ti.Vector([rx2, rz2]), d)
+        m2, inv2, i2 = contact_mass(fx, a, j)
+        k += inv2 + c2 * c2 / i2
+    return k, m1, i1, c1, m2, i2, c2
+
+
+@ti.func
+def push(a: ti.template(), i, j, jj, dx, dz, m1, i1, c1, m2, i2, c2):
+    """Apply the impulse ``jj d`` to body i at the contact and ``-jj d`` to j (none to the wall)."""
+    b = ti.static(a.b)
+    b[i, Body.VX] += jj * dx / m1
+    b[i, Body.VZ] += jj * dz / m1
+    b[i, Body.OM] += c1 * jj / i1
+    if j >= 0:
+        b[j, Body.VX] -= jj * dx / m2
+        b[j, Body.VZ] -= jj * dz / m2
+        b[j, Body.OM] -= c2 * jj / i2
+
+
+@ti.func
 def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot, defer: ti.template()):
     """Apply the impulse of the contact law to the pair (i, j) (j < 0: the wall) if it approaches.
 
@@ -64,39 +95,49 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
     vn = normal_speed(a, i, j, rx1, rz1, rx2, rz2, nx, nz)
     if vn < 0 and gap + a.par[Param.DT] * vn < 0:
         e = a.par[Param.RESTITUTION]
-        n = ti.Vector([nx, nz])
-        a1 = cross2(ti.Vector([rx1, rz1]), n)
-        m1, inv1, i1 = contact_mass(fx, a, i)
-        kk = inv1 + a1 * a1 / i1
-        a2 = 0.0
-        m2, i2 = 1.0, 1.0
-        if j >= 0:
-            a2 = cross2(ti.Vector([rx2, rz2]), n)
-            m2, inv2, i2 = contact_mass(fx, a, j)
-            kk += inv2 + a2 * a2 / i2
+        kk, m1, i1, a1, m2, i2, a2 = pair_mass(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz)
         jn = -(1.0 + e) * vn / kk
-        b[i, Body.VX] += jn * nx / m1
-        b[i, Body.VZ] += jn * nz / m1
-        b[i, Body.OM] += a1 * jn / i1
-        if j >= 0:
-            b[j, Body.VX] -= jn * nx / m2
-            b[j, Body.VZ] -= jn * nz / m2
-            b[j, Body.OM] -= a2 * jn / i2
+        push(a, i, j, jn, nx, nz, m1, i1, a1, m2, i2, a2)
         dissipated = 0.5 * (1.0 - e * e) * vn * vn / kk
         # the step's energy is the kinetic energy at the mid-kick velocities, half a kick
         # before the ones the impulse acts on: book the difference (docs/model.md)
         kick_vn = relative_normal(a, i, j, Body.KICK_VX, Body.KICK_VZ, Body.KICK_OM, rx1, rz1, rx2, rz2, nx, nz)
+        offset = 0.5 * jn * kick_vn
+        rubbed = 0.0
+        if ti.static(fx.friction):
+            jt, rubbed, kick_vt = tangential(fx, a, i, j, rx1, rz1, rx2, rz2, -nz, nx, jn)
+            offset += 0.5 * jt * kick_vt
         if ti.static(defer):
             a.cd[slot, i, Contact.DEF_COLLISION] = dissipated
-            a.cd[slot, i, Contact.DEF_OFFSET] = 0.5 * jn * kick_vn
+            a.cd[slot, i, Contact.DEF_OFFSET] = offset
             a.cd[slot, i, Contact.DEF_IMPULSE] = jn
+            if ti.static(fx.friction):
+                a.cd[slot, i, Contact.DEF_FRICTION] = rubbed
         else:
             if j < 0:
                 a.acc[Acc.WALL_IMPULSE] += jn
             a.acc[Acc.COLLISION] += dissipated
-            a.acc[Acc.OFFSET] += 0.5 * jn * kick_vn
+            a.acc[Acc.OFFSET] += offset
             a.acc[Acc.IMPULSE] += jn
+            if ti.static(fx.friction):
+                a.acc[Acc.FRICTION] += rubbed
             a.cnt[Counter.IMPULSES] += 1  # deferred: counted by book (no atomics in the islands' loop)
+
+
+@ti.func
+def tangential(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, tx, tz, jn):
+    """Coulomb friction after the normal impulse ``jn`` (effect ``friction``,
+    :mod:`.effects.friction`): the tangential impulse along ``t`` that stops the sliding
+    ``v_t``, clamped to ``|J_t| <= mu jn``, applied to the pair. Returns ``(J_t, the kinetic
+    energy it removed, the kick's tangential relative velocity)``."""
+    vt = relative_normal(a, i, j, Body.VX, Body.VZ, Body.OM, rx1, rz1, rx2, rz2, tx, tz)
+    kt, m1, i1, c1, m2, i2, c2 = pair_mass(fx, a, i, j, rx1, rz1, rx2, rz2, tx, tz)
+    limit = a.par[Param.FRICTION] * jn
+    jt = ti.min(ti.max(-vt / kt, -limit), limit)
+    push(a, i, j, jt, tx, tz, m1, i1, c1, m2, i2, c2)
+    rubbed = -jt * (vt + 0.5 * jt * kt)
+    kick_vt = relative_normal(a, i, j, Body.KICK_VX, Body.KICK_VZ, Body.KICK_OM, rx1, rz1, rx2, rz2, tx, tz)
+    return jt, rubbed, kick_vt
 
 
 @ti.func
@@ -160,7 +201,7 @@ def impulse_pass(fx: ti.template(), a: ti.template()):
 
 
 @ti.func
-def book_one(a: ti.template(), s, i, wall: ti.template()):
+def book_one(fx: ti.template(), a: ti.template(), s, i, wall: ti.template()):
     cd = ti.static(a.cd)
     jn = cd[s, i, Contact.DEF_IMPULSE]
     if jn > 0:  # an impulse was applied (J > 0 whenever one is)
@@ -169,6 +210,8 @@ def book_one(a: ti.template(), s, i, wall: ti.template()):
         a.acc[Acc.COLLISION] += cd[s, i, Contact.DEF_COLLISION]
         a.acc[Acc.OFFSET] += cd[s, i, Contact.DEF_OFFSET]
         a.acc[Acc.IMPULSE] += jn
+        if ti.static(fx.friction):
+            a.acc[Acc.FRICTION] += cd[s, i, Contact.DEF_FRICTION]
         a.cnt[Counter.IMPULSES] += 1
         cd[s, i, Contact.DEF_IMPULSE] = 0.0
 
@@ -182,10 +225,10 @@ def book(fx: ti.template(), a: ti.template()):
     for i in range(n):
         if ti.static(fx.wall):
             if a.bi[i, BodyInt.WALL_ON]:
-                book_one(a, ti.cast(a.cfg[Config.SLOTS], ti.i32), i, True)
+                book_one(fx, a, ti.cast(a.cfg[Config.SLOTS], ti.i32), i, True)
         if ti.static(fx.collisions):
             for s in range(a.bi[i, BodyInt.NCONTACT]):
-                book_one(a, s, i, False)
+                book_one(fx, a, s, i, False)
 
 
 @ti.func

@@ -174,7 +174,8 @@ def insert_contact(a: ti.template(), i, j, px, pz, nx, nz, gap):
         pos = cnt
         while pos > 0 and a.cp[pos - 1, i] > j:
             a.cp[pos, i] = a.cp[pos - 1, i]
-            for c in ti.static(range(Contact.SIZE)):
+            # the geometry only: the deferred terms (DEF_*) are booked and cleared before detection
+            for c in ti.static(range(Contact.GAP + 1)):
                 a.cd[pos, i, c] = a.cd[pos - 1, i, c]
             pos -= 1
         a.cp[pos, i] = j

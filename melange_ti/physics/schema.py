@@ -141,6 +141,8 @@ CONTACTS = Table(
         Column("DEF_COLLISION", "scratch", E, "islands: the impulse's own dissipation, until booked"),
         Column("DEF_OFFSET", "scratch", E, "islands: the impulse's half-kick offset, until booked"),
         Column("DEF_IMPULSE", "scratch", "rho_w w^2 sqrt(g w)", "islands: the impulse J (0: none or booked)"),
+        # allocated only when the scene names friction (contact_width)
+        Column("DEF_FRICTION", "scratch", E, "islands: the friction impulse's dissipation, until booked", owner="friction"),
     ),
     Contact,
 )
@@ -257,6 +259,16 @@ ACCUMULATORS = Table(
         ),
         Column("WALL_IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of impulses from the wall", "wall_impulse"),
         Column("IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of all impulses", "impulse_sum"),
+        Column(
+            "FRICTION",
+            "ledger",
+            E,
+            "energy removed by friction impulses, -J_t (v_t + J_t K_t / 2) each (0 without the friction effect)",
+            "friction_dissipated",
+            owner="friction",
+            budget=True,
+            since=4,
+        ),
     ),
     Acc,
 )
@@ -322,6 +334,12 @@ def body_width(fx) -> int:
     those of the effects it names, in whole cache lines."""
     used = [k for k, c in enumerate(BODIES.columns) if c.owner is None or getattr(fx, c.owner)]
     return -(-(max(used) + 1) // LINE_COLUMNS) * LINE_COLUMNS
+
+
+def contact_width(fx) -> int:
+    """Columns of ``cd`` a model with the effect set ``fx`` allocates: an effect's own (its
+    ``owner``, the last ones) only when the scene names it."""
+    return max(k for k, c in enumerate(CONTACTS.columns) if c.owner is None or getattr(fx, c.owner)) + 1
 
 
 def allocated(column: Column, fx) -> bool:

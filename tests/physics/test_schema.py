@@ -143,6 +143,7 @@ def test_derived_lists():
         "collision_dissipated",
         "impulse_offset_work",
         "correction_work",
+        "friction_dissipated",
     }
     from melange_ti import diagnostics
 
