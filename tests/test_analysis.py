@@ -419,6 +419,18 @@ def test_labels_are_words_not_formulas():
         assert not re.search(r"_[a-z]\b|_[a-z]\(|\(t\)|>=|Σ|−|\bpi\b", label), label
 
 
+def test_every_energy_term_has_its_own_style():
+    """The budget figure draws each term of the budget (every ledger the code books) in a
+    colour and line style of its own: a ledger without a style was drawn in matplotlib's
+    first colour, the same as drag's."""
+    from melange_ti.analysis.figures import ENERGY_STYLE
+    from melange_ti.analysis.stats import ENERGY_TERMS
+
+    assert set(ENERGY_TERMS) <= set(ENERGY_STYLE), sorted(set(ENERGY_TERMS) - set(ENERGY_STYLE))
+    looks = [(color, ls) for _, color, ls, _ in ENERGY_STYLE.values()]
+    assert len(set(looks)) == len(looks), looks
+
+
 def test_bundled_summaries_follow_the_code():
     """Every runs/*/summary.csv has the columns plot writes now, and each energy residual in
     it was taken with every energy ledger the code books (a summary made from files that

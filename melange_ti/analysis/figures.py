@@ -305,6 +305,7 @@ ENERGY_STYLE = {
     "correction": ("overlap-correction work", "tab:purple", "-", 1.2),
     "impulse_offset": ("impulses' half-kick offset", "tab:green", ":", 1.2),
     "added_mass": ("added-mass exchange", "tab:brown", "-", 1.2),
+    "friction": ("friction dissipated", "tab:cyan", "-", 1.2),
     "residual": ("residual: energy lost but not booked (the time integrator's error)", "0.4", "--", 1.2),
 }
 

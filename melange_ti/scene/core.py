@@ -170,6 +170,8 @@ def _scene_table(doc: dict) -> dict:
     for e in effects:
         if e not in EFFECTS:
             raise error("scene.effects", e, f"unknown effect (known: {', '.join(EFFECTS)})")
+    if "friction" in effects and not {"collisions", "wall"} & set(effects):
+        raise error("scene.effects", effects, "friction acts at contacts: name collisions or wall too")
     precision = t.get("precision", "f64")
     if precision not in ("f32", "f64"):
         raise error("scene.precision", precision, 'must be "f32" or "f64"')

@@ -242,3 +242,6 @@ def test_friction_key_is_checked():
     with pytest.raises(scene_mod.SceneError, match="physics.friction"):
         capsizing_row(-0.1)
     assert math.isclose(capsizing_row(0.45).physics.friction, 0.45)
+    with pytest.raises(scene_mod.SceneError, match="friction acts at contacts"):
+        scene_mod.load(None, overrides=[("scene.effects", ["gravity", "buoyancy", "friction"])])
+    assert scene_mod.load(None, overrides=[("scene.effects", ["wall", "friction"])]).effects.friction
