@@ -277,10 +277,7 @@ class Model:
             if col < rows.shape[1]:
                 rows[:, col] = acc[name]
         self.arrays.b.from_numpy(rows)
-        stored_acc = np.asarray(acc["acc"], dtype=np.float64)[: ACCUMULATORS.size]
-        acc_rows = np.zeros(ACCUMULATORS.size)
-        acc_rows[: stored_acc.size] = stored_acc  # a checkpoint from before a ledger was added
-        self.arrays.acc.from_numpy(acc_rows)
+        self.arrays.acc.from_numpy(np.asarray(acc["acc"], dtype=np.float64))
         counters = np.zeros(COUNTERS.size, dtype=np.int64)
         stored = np.asarray(acc["counters"], dtype=np.int64)[: COUNTERS.size]
         counters[: stored.size] = stored  # a checkpoint from before a counter was added

@@ -22,7 +22,7 @@ from . import __version__
 from . import diagnostics as diag
 from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
-from .io.hdf5 import SCENE_ATTR, OutputError, RunWriter, read_run, scene_text
+from .io.hdf5 import FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_run, scene_text
 from .model import Model
 from .physics.schema import STATE_NAMES
 from .physics.stages import SAMPLE_NAMES
@@ -504,11 +504,17 @@ class Simulation:
         return Icebergs(**state, width=ck["width"], thickness=ck["thickness"])
 
     def _reopen(self, model: Model, dtype, ck: dict):
+        data = read_run(self.out)
+        version = int(data["attrs"].get("format_version", 1))
+        if version != FORMAT_VERSION:
+            raise RunError(
+                f"--resume: {self.out} is in run-file format {version}, this melange_ti writes {FORMAT_VERSION}: "
+                "continue the run with the version that began it, or start it again"
+            )
         text = self.scene.to_toml()
         if str(ck[SCENE_ATTR]) != text:
             raise RunError(f"--resume: {self.out} was made by a different scene (or --set values); refusing to mix them")
-        stored = scene_text(self.out, read_run(self.out))
-        if stored != text:
+        if scene_text(self.out, data) != text:
             raise RunError(f"--resume: {self.out} was made by a different scene (or --set values); refusing to mix them")
         step = int(ck["step"])
         model.set_state({k[6:]: ck[k] for k in ck if k.startswith("state_")})

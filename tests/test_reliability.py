@@ -372,6 +372,36 @@ def test_resume_with_a_damaged_checkpoint_is_refused(interrupted):
     assert {p.name: file_digest(p) for p in damaged.iterdir()} == before
 
 
+def test_resume_of_a_run_begun_by_an_earlier_version_is_refused(interrupted):
+    """A run file and checkpoint of an earlier format (3: before friction's ledger) cannot be
+    continued (its scene text and ledgers differ): one line naming the version, status 2,
+    files untouched; the run file alone (a fresh checkpoint) is refused the same way."""
+    import numpy as np
+
+    from melange_ti.io.checkpoint import FORMAT_VERSION as CKPT_VERSION
+    from melange_ti.io.hdf5 import FORMAT_VERSION
+
+    _interrupted_ok(interrupted, "int")
+    d = interrupted["dir"]
+    old = d / "old_version"
+    old.mkdir()
+    shutil.copy2(d / "int_as_left.h5", old / "run.h5")
+    with h5py.File(old / "run.h5", "r+") as f:
+        f.attrs["format_version"] = FORMAT_VERSION - 1
+    with np.load(d / "int_as_left.h5.ckpt") as z:
+        ck = {k: z[k] for k in z.files}
+    for version, what in ((CKPT_VERSION - 1, "checkpoint"), (CKPT_VERSION, "run-file format")):
+        ck["format_version"] = np.asarray(version)
+        with open(old / "run.h5.ckpt", "wb") as fh:
+            np.savez(fh, **ck)
+        before = {p.name: file_digest(p) for p in old.iterdir()}
+        proc = run_cli(["run", "--out", "run.h5", "--threads", "1", "--resume"], old)
+        assert proc.returncode == 2, proc.stderr
+        line = one_error_line(proc)
+        assert what in line and "version" in line and str(version if what == "checkpoint" else FORMAT_VERSION - 1) in line, line
+        assert {p.name: file_digest(p) for p in old.iterdir()} == before, "a refused resume changed the files"
+
+
 def test_resume_after_sigint_is_bit_identical(interrupted, reference):
     _interrupted_ok(interrupted, "int")
     d = interrupted["dir"]

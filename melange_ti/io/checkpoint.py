@@ -19,7 +19,7 @@ def checkpoint_path(run_path: str | Path) -> Path:
     return run_path.with_name(run_path.name + ".ckpt")
 
 
-FORMAT_VERSION = 3  # 3: ledgers and counters named by the schema
+FORMAT_VERSION = 4  # 4: the friction ledger in acc; 3: ledgers and counters named by the schema
 
 
 def save(path: str | Path, data: dict[str, np.ndarray | str | int | float]) -> None:
@@ -53,5 +53,8 @@ def load(path: str | Path) -> dict[str, np.ndarray]:
     except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as exc:
         raise ValueError(f"damaged ({exc.__class__.__name__})") from None
     if int(data.get("format_version", -1)) != FORMAT_VERSION:
-        raise ValueError(f"format version {int(data.get('format_version', -1))}, expected {FORMAT_VERSION}")
+        raise ValueError(
+            f"format version {int(data.get('format_version', -1))}, expected {FORMAT_VERSION} (written by another "
+            "melange_ti version: continue the run with that version, or start it again)"
+        )
     return data
