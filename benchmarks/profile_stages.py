@@ -3,6 +3,8 @@
     python benchmarks/profile_stages.py --n 100000 --warm 3000 --steps 20
     python benchmarks/profile_stages.py --n 100000 --warm 4500 --steps 20 --islands off --parts
     python benchmarks/profile_stages.py --n 100000 --warm 3000 --islands off --threads 1
+    python benchmarks/profile_stages.py --n 100000 --warm 3000 --steps 20 --islands off --groups 1,2 --parts \
+        --state /tmp/shelf_100k.npz --csv benchmarks/results/groups/groups_n100000.csv
     python benchmarks/profile_stages.py --n 10000 --warm 3000 --steps 5 --islands on --parts \
         --arch vulkan --state /tmp/shelf_10k.npz --csv benchmarks/results/device/lavapipe_n10000.csv
 
@@ -36,6 +38,11 @@ def main() -> None:
     p.add_argument("--arch", default="cpu", choices=("cpu", "gpu", "cuda", "vulkan"))
     p.add_argument("--state", help="npz file of the warm state (read if present, else written)")
     p.add_argument("--csv", help="write the per-kernel profile (with --parts) to this CSV file")
+    p.add_argument(
+        "--groups",
+        default="auto",
+        help="islands off: contiguous groups of the sequential passes, 'auto' (one per thread) or a list, e.g. 1,2",
+    )
     a = p.parse_args()
     import subprocess
     import sys
@@ -56,12 +63,15 @@ def main() -> None:
     one_thread = {
         f"{st.name}.{part.func.__name__}": part.sequential
         for st in stages.STAGES
-        for parts in (st.parallel, st.without_islands or (), st.device or ())
+        for parts in (st.parallel, st.without_islands or (), st.device or (), st.groups or ())
         for part in parts
     }
     rows = []
-    for islands in {"off": (False,), "on": (True,), "both": (False, True)}[a.islands]:
-        m = Model(sc, mode="parallel", islands=islands)
+    group_counts = [None] if a.groups == "auto" else [int(g) for g in a.groups.split(",")]
+    wanted = {"off": (False,), "on": (True,), "both": (False, True)}[a.islands]
+    forms = [(False, g) for g in group_counts] + [(True, None)]
+    for islands, groups in [(isl, g) for isl, g in forms if isl in wanted]:
+        m = Model(sc, mode="parallel", islands=islands, groups=groups)
         if a.state and Path(a.state).exists():
             m.set_state(dict(np.load(a.state)))
         else:
@@ -74,18 +84,19 @@ def main() -> None:
         stage = {k: v for k, v in prof.items() if "." not in k}
         total = sum(stage.values())
         cells = ", ".join(f"{k} {v * 1e3:.2f}" for k, v in stage.items())
-        print(f"{runtime.backend()}, islands {'on ' if islands else 'off'}: {cells}; total {total * 1e3:.1f} ms/step", flush=True)
+        form = "islands on " if islands else f"islands off, {m.groups} group{'s' if m.groups > 1 else ''}"
+        print(f"{runtime.backend()}, {form}: {cells}; total {total * 1e3:.1f} ms/step", flush=True)
         for k, v in prof.items():
             if "." in k:
                 flag = "  one thread" if one_thread.get(k) else ""
                 print(f"    {k:32s} {v * 1e3:8.2f} ms/step {v / total:7.1%}{flag}", flush=True)
-                rows.append((runtime.backend(), a.n, int(islands), k, v * 1e3, v / total, int(bool(one_thread.get(k)))))
+                rows.append((runtime.backend(), a.n, int(islands), m.groups, k, v * 1e3, v / total, int(bool(one_thread.get(k)))))
     if a.csv and rows:
         Path(a.csv).parent.mkdir(parents=True, exist_ok=True)
         with open(a.csv, "w") as f:
-            f.write("backend,n,islands,kernel,ms_per_step,share,one_thread\n")
+            f.write("backend,n,islands,groups,kernel,ms_per_step,share,one_thread\n")
             for r in rows:
-                f.write(f"{r[0]},{r[1]},{r[2]},{r[3]},{r[4]:.4f},{r[5]:.4f},{r[6]}\n")
+                f.write(f"{r[0]},{r[1]},{r[2]},{r[3]},{r[4]},{r[5]:.4f},{r[6]:.4f},{r[7]}\n")
 
 
 if __name__ == "__main__":

@@ -94,6 +94,7 @@ class Model:
         mode: str = "auto",
         islands: bool | None = None,
         device_parts: bool | None = None,
+        groups: int | None = None,
     ):
         bergs = icebergs if icebergs is not None else scene.icebergs()
         self.scene = scene
@@ -113,6 +114,11 @@ class Model:
         # off the CPU the parts the CPU runs on one thread run in parallel forms
         # (physics/device.py); forced on the CPU by tests, where they give the same state
         self.device_parts = (not on_cpu) if device_parts is None else bool(device_parts)
+        # without islands, the sequential passes split into contiguous groups solved side by
+        # side, one per CPU thread (physics/groups.py; the same bits on any number of groups)
+        if groups is None:
+            groups = threads if on_cpu else 1
+        self.groups = max(1, min(int(groups), n - 1)) if not self.islands else 1
         if mode == "auto":
             mode = "serial" if on_cpu and n <= SERIAL_MAX_N else "parallel"
             # measured at the first advance (serial meanwhile: its allocation, lists included)
@@ -192,6 +198,7 @@ class Model:
         cfg[Config.NCELLS] = ncells
         cfg[Config.DISCS] = scene.contacts.discs
         cfg[Config.LISTS] = int(self.lists)
+        cfg[Config.GROUPS] = self.groups
         a.cfg.from_numpy(cfg)
 
     # ------------------------------------------------------------------ host side
@@ -353,10 +360,13 @@ class Model:
 
     def _run(self, stage: stages.Stage, times: dict | None) -> None:
         t0 = time.perf_counter() if times is not None else 0.0
-        if not self.islands and stage.islands_only:
+        grouped = not self.islands and self.groups > 1 and stage.groups is not None
+        if not self.islands and stage.islands_only and not grouped:
             return
         parts, repeat = stage.parallel, self.scene.contacts.contact_passes if stage.per_pass else 1
-        if not self.islands and stage.without_islands is not None:
+        if grouped:
+            parts = stage.groups
+        elif not self.islands and stage.without_islands is not None:
             parts, repeat = stage.without_islands, 1  # the sequential pass loops its passes itself
         elif self.device_parts and stage.device is not None:
             parts = stage.device

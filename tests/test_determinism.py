@@ -43,9 +43,11 @@ def scene_text() -> str:
     return dumps_toml(doc)
 
 
-def run_model(sc, mode, islands=None):
-    m = Model(sc, mode=mode, islands=islands)
+def run_model(sc, mode, islands=None, groups=None):
+    m = Model(sc, mode=mode, islands=islands, groups=groups)
     assert m.mode == mode
+    if groups is not None:
+        assert m.groups == groups
     m.advance(STEPS)
     return m.sample(), m.totals()
 
@@ -83,15 +85,42 @@ from melange_ti.physics.schema import STATE_NAMES as STATE  # noqa: E402
 def other_runs():
     sc = scene_mod.loads(scene_text())
     runs = (
-        ("parallel", "parallel", False),
-        ("parallel islands", "parallel", True),
-        ("parallel again", "parallel", None),
-        ("serial again", "serial", None),
+        ("parallel", "parallel", False, 1),
+        ("parallel 2 groups", "parallel", False, 2),
+        ("parallel 3 groups", "parallel", False, 3),
+        ("parallel islands", "parallel", True, None),
+        ("parallel again", "parallel", None, None),
+        ("serial again", "serial", None, None),
     )
-    return {name: run_model(sc, mode, islands) for name, mode, islands in runs}
+    return {name: run_model(sc, mode, islands, groups) for name, mode, islands, groups in runs}
 
 
-OTHERS = ["parallel", "parallel islands", "parallel again", "serial again"]
+OTHERS = ["parallel", "parallel 2 groups", "parallel 3 groups", "parallel islands", "parallel again", "serial again"]
+
+
+def test_groups_split_where_no_contact_crosses():
+    """The groups' bounds (physics/groups.py) after a detection: ascending, each at or after
+    its share of the bodies, and no contact joins two groups; the scene does split."""
+    from melange_ti.physics.schema import BodyInt
+
+    sc = scene_mod.loads(scene_text())
+    m = Model(sc, mode="parallel", islands=False, groups=3)
+    split = 0
+    for _ in range(40):
+        m.advance(50)
+        bi = m.arrays.bi.to_numpy()
+        starts = bi[:4, BodyInt.ISLAND_START]
+        assert starts[0] == 0 and starts[3] == m.n and np.all(np.diff(starts) >= 0), starts
+        cp = m.arrays.cp.to_numpy()  # the last detection's contacts, which the bounds were cut from
+        group = np.searchsorted(starts, np.arange(m.n), side="right") - 1
+        for g in (1, 2):
+            if starts[g] < m.n:
+                split += 1
+                assert starts[g] >= g * m.n // 3, starts
+        for i in range(m.n):
+            for s in range(bi[i, BodyInt.NCONTACT]):
+                assert group[i] == group[cp[s, i]], (i, cp[s, i], starts)
+    assert split > 0, "the scene never split: the test needs one that does"
 
 
 @pytest.mark.parametrize("other", OTHERS)
@@ -202,27 +231,28 @@ def test_auto_mode_calibrates_between_the_thresholds_and_keeps_the_bits():
     assert small.calibration is None and small.mode == "serial"
 
 
-@pytest.mark.parametrize("islands", [False, True])
-def test_profile_times_every_part_and_keeps_the_bits(serial_result, islands):
+@pytest.mark.parametrize("islands,groups", [(False, None), (True, None), (False, 2)])
+def test_profile_times_every_part_and_keeps_the_bits(serial_result, islands, groups):
     """``Model.profile(parts=True)`` (the benchmarks' per-kernel table) times each kernel a
     stage launches inside that stage's time, and steps exactly as ``advance`` does."""
     from melange_ti.physics import stages
 
     sc = scene_mod.loads(scene_text())
-    m = Model(sc, mode="parallel", islands=islands)
+    m = Model(sc, mode="parallel", islands=islands, groups=groups)
     m.advance(STEPS - 20)
     prof = m.profile(20, parts=True)
     parts = {k: v for k, v in prof.items() if "." in k}
     for st in stages.STAGES:
-        if st.islands_only and not islands:
+        grouped = not islands and m.groups > 1 and st.groups is not None
+        if st.islands_only and not islands and not grouped:
             continue
-        launched = st.without_islands if (not islands and st.without_islands) else st.parallel
+        launched = st.groups if grouped else st.without_islands if (not islands and st.without_islands) else st.parallel
         names = {f"{st.name}.{p.func.__name__}" for p in launched if p.needs(m.fx)}
         assert names <= parts.keys(), (st.name, names - parts.keys())
         assert all(parts[k] > 0 for k in names)
         assert prof[st.name] >= sum(parts[k] for k in names)
     s, tot = serial_result
-    assert_bitwise(s, m.sample(), f"profiled parallel (islands {islands}) vs serial")
+    assert_bitwise(s, m.sample(), f"profiled parallel (islands {islands}, groups {groups}) vs serial")
     assert tot == m.totals()
 
 

@@ -221,8 +221,13 @@ def book(fx: ti.template(), a: ti.template()):
     """Add the deferred terms of one island-parallel pass to ``acc`` in the sequential
     pass's order (body ascending: wall, then partners), clearing them: the same bits as
     :func:`impulse_pass`'s own sums."""
-    n = ti.cast(a.cfg[Config.N], ti.i32)
-    for i in range(n):
+    book_bodies(fx, a, 0, ti.cast(a.cfg[Config.N], ti.i32))
+
+
+@ti.func
+def book_bodies(fx: ti.template(), a: ti.template(), start, end):
+    """:func:`book` for the bodies ``start <= i < end``, in order."""
+    for i in range(start, end):
         if ti.static(fx.wall):
             if a.bi[i, BodyInt.WALL_ON]:
                 book_one(fx, a, ti.cast(a.cfg[Config.SLOTS], ti.i32), i, True)

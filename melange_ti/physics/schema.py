@@ -204,6 +204,7 @@ CONFIG = Table(
         Column("NCELLS", "config", "1", "cells of the broad phase (a power of 2)"),
         Column("DISCS", "config", "1", "discs per iceberg"),
         Column("LISTS", "config", "1", "1 if the narrow phase keeps candidate lists"),
+        Column("GROUPS", "config", "1", "parallel form without islands: contiguous groups the sequential passes split into"),
     ),
     Config,
 )

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import taichi as ti
 
-from . import broad, correction, device, forces, impulses, islands, narrow
+from . import broad, correction, device, forces, groups, impulses, islands, narrow
 from .schema import BODIES, Arrays, Counter, allocated
 
 MAX_DETECT = 16  # rounds of (detection,) impulse pass and check per step
@@ -70,7 +70,9 @@ class Stage:
     fused kernel); ``parallel`` its parts as kernels, in turn, ``contact_passes`` times if
     ``per_pass``; ``needs(fx)``: run only when true. Without islands
     (``Model(islands=False)``) the parallel form runs ``without_islands`` instead (once), and
-    skips an ``islands_only`` stage. On a device (``Model(device_parts=True)``) it runs
+    skips an ``islands_only`` stage; with groups (``Model(groups=G)``, G > 1: the sequential
+    passes split into G contiguous groups, :mod:`.groups`) it runs ``groups`` where given
+    (``per_pass`` as ``parallel``), the islands stage included. On a device (``Model(device_parts=True)``) it runs
     ``device`` instead of ``parallel``, where given: no part on one thread but a walk over
     block sums (:mod:`.device`)."""
 
@@ -83,6 +85,7 @@ class Stage:
     without_islands: tuple[Part, ...] | None = None
     islands_only: bool = False
     device: tuple[Part, ...] | None = None
+    groups: tuple[Part, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -143,6 +146,7 @@ ISLANDS = Stage(
     nothing,
     (Part(islands.label, sequential=True),),
     islands_only=True,
+    groups=(Part(groups.split, sequential=True),),
     device=(
         Part(device.label_start),
         Part(device.label_round, repeat=True),
@@ -158,6 +162,7 @@ IMPULSES = Stage(
     (Part(islands.impulse_islands), Part(impulses.book, sequential=True)),
     per_pass=True,
     without_islands=(Part(impulses.impulse_pass, sequential=True),),
+    groups=(Part(groups.impulse_groups), Part(groups.book_later, sequential=True)),
     device=(Part(device.impulse_spans), Part(device.impulse_sums), Part(device.impulse_total, sequential=True)),
 )
 CHECK = Stage("check", impulses.check, (Part(impulses.check),))
@@ -178,6 +183,12 @@ CORRECTION = Stage(
     without_islands=(
         Part(correction.prepare_all),
         Part(correction.sweeps_eager, sequential=True),
+        Part(correction.energy_all),
+        Part(correction.book, sequential=True),
+    ),
+    groups=(
+        Part(correction.prepare_all),
+        Part(groups.correct_groups),
         Part(correction.energy_all),
         Part(correction.book, sequential=True),
     ),
