@@ -61,6 +61,7 @@ CALIBRATE_MIN_N = 2000
 # icebergs side by side (physics/islands.py); on fewer, finding them costs what they save
 # (docs/performance.md).
 ISLANDS_MIN_THREADS = 4
+MAX_GROUPS = 64  # contiguous groups of the sequential passes at most (physics/groups.py)
 CALIBRATE_STEPS = 8  # timed steps per form, after one untimed step each (compilation)
 
 _DTYPES = {"f64": ti.f64, "i32": ti.i32, "i64": ti.i64}
@@ -118,7 +119,8 @@ class Model:
         # side, one per CPU thread (physics/groups.py; the same bits on any number of groups)
         if groups is None:
             groups = threads if on_cpu else 1
-        self.groups = max(1, min(int(groups), n - 1)) if not self.islands else 1
+        grouped = on_cpu and not self.islands and not self.device_parts
+        self.groups = max(1, min(int(groups), n - 1, MAX_GROUPS)) if grouped else 1
         if mode == "auto":
             mode = "serial" if on_cpu and n <= SERIAL_MAX_N else "parallel"
             # measured at the first advance (serial meanwhile: its allocation, lists included)

@@ -6,8 +6,9 @@ contact ``(i, j)`` with ``i < s <= j``) splits the bodies into two ranges that s
 contact: solving each range in body order gives every body the bits the one sequential pass
 gives it. :func:`split` cuts the bodies at such points into ``Config.GROUPS`` contiguous
 groups (one per thread), each at the first uncrossed index at or after its share
-``g N / G``; where none is found the groups after it stay empty (the passes then run as
-before, on fewer threads). The first group adds its impulses' energy terms to the run-wide
+``g N / G``; where none is found within half a share after it, that group and the later
+ones stay empty (the passes then run as before, on fewer threads), so that a shelf joined
+into one island is not walked to its end at every detection. The first group adds its impulses' energy terms to the run-wide
 sums as it goes; the later groups keep them per contact (``Contact.DEF_*``) and
 :func:`book_later` adds them afterwards in body order, so the sums are the same bits too.
 The correction's energy is already summed in body order (:func:`.correction.book`).
@@ -16,7 +17,9 @@ Group ``g``'s bodies are ``[ISLAND_START[g], ISLAND_START[g + 1])`` (the islands
 unused when islands are off).
 
 Cheaper than islands on a few threads: finding the cuts walks the bodies once up to the
-last cut, and the booking visits only the later groups' contacts.
+last cut, and the booking visits only the later groups' contacts. Used only in the CPU's
+parallel form without islands (a device runs islands: its parts avoid the two call sites of
+the contact law that :func:`impulse_groups` has, see :func:`.impulses.contact`).
 """
 
 import taichi as ti
@@ -52,9 +55,12 @@ def split(fx: ti.template(), a: ti.template()):
     reach = -1  # the highest partner of the bodies below i
     i = 0
     while i < n and g < groups:
-        if i >= (g * n) // groups and reach < i:
+        share = (g * n) // groups
+        if i >= share and reach < i:
             bi[g, BodyInt.ISLAND_START] = i
             g += 1
+        elif i >= share + n // (2 * groups):
+            break  # no cut near this share (one island spans it): the later groups stay empty
         reach = ti.max(reach, last_partner(a, i))
         i += 1
     while g <= groups:

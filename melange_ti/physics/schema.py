@@ -116,7 +116,13 @@ BODY_INTS = Table(
         Column("NEXT_ENTRY", "scratch", "1", "candidate lists: the entry a new partner takes (round robin)"),
         Column("ISLAND", "scratch", "1", "islands: the body's root (lowest index of its island)"),
         Column("ISLAND_NUM", "scratch", "1", "islands: at a root, its island's number (islands by root ascending)"),
-        Column("ISLAND_START", "scratch", "1", "islands: indexed by island number, where its bodies start in ISLAND_ORDER"),
+        Column(
+            "ISLAND_START",
+            "scratch",
+            "1",
+            "islands: indexed by island number, where its bodies start in ISLAND_ORDER; groups (islands off): "
+            "indexed by group, its first body (groups.split)",
+        ),
         Column("ISLAND_ORDER", "scratch", "1", "islands: bodies grouped by island, ascending within (indexed by position)"),
         Column("ISLAND_END", "scratch", "1", "device islands: one past the island's highest body (indexed by island number)"),
     ),

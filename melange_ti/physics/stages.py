@@ -6,7 +6,8 @@ The step is written once, as data (:data:`STEP`)::
     rounds, at most MAX_DETECT, if contacts:
         broad     (first round, and again     reach and cell list              (broad.py)
         narrow     when a body outran it)     contacts from the discs, wall    (narrow.py)
-        islands                               parallel form: touching groups   (islands.py)
+        islands                               parallel form: touching groups   (islands.py;
+                                              islands off: cuts into groups, groups.py)
         impulses                              sequential impulse pass          (impulses.py)
         check                                 again? Counter.AGAIN             (impulses.py)
     drift                                    x += dt v, theta += dt omega      (forces.py)
@@ -18,7 +19,8 @@ and run in one of two forms that give the same bits:
   (no launch cost: the form for small N on the CPU);
 - **parallel**: each stage's parts launched as kernels (:func:`run_part`), their outer loop
   parallel (over bodies, or over islands for the impulse pass and the correction's sweeps:
-  :mod:`.islands`), except the parts that must be sequential (``sequential``: the cell
+  :mod:`.islands`; with islands off, over contiguous groups of bodies: :mod:`.groups`),
+  except the parts that must be sequential (``sequential``: the cell
   scan, finding the islands, adding the energy terms to the run-wide sums in order). :class:`melange_ti.model.Model` walks
   :data:`STEP` and can time every stage (:meth:`Model.profile`, like Box2D's profile).
 

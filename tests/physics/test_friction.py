@@ -226,8 +226,13 @@ def test_budget_closes_with_friction():
 def test_friction_is_bit_identical_across_kernel_forms():
     sc = capsizing_row(MU, count=30)
     results = []
-    for mode, islands in (("serial", None), ("parallel", False), ("parallel", True)):
-        m = Model(sc, mode=mode, islands=islands)
+    for mode, islands, groups in (
+        ("serial", None, None),
+        ("parallel", False, 1),
+        ("parallel", False, 3),
+        ("parallel", True, None),
+    ):
+        m = Model(sc, mode=mode, islands=islands, groups=groups)
         m.advance(3000)
         results.append((m.state(), m.totals()))
     (s0, t0) = results[0]
