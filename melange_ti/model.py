@@ -362,7 +362,7 @@ class Model:
 
     def _run(self, stage: stages.Stage, times: dict | None) -> None:
         t0 = time.perf_counter() if times is not None else 0.0
-        grouped = not self.islands and self.groups > 1 and stage.groups is not None
+        grouped = self.groups > 1 and stage.groups is not None  # groups > 1 only with islands off
         if not self.islands and stage.islands_only and not grouped:
             return
         parts, repeat = stage.parallel, self.scene.contacts.contact_passes if stage.per_pass else 1

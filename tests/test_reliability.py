@@ -390,7 +390,9 @@ def test_resume_of_a_run_begun_by_an_earlier_version_is_refused(interrupted):
         f.attrs["format_version"] = FORMAT_VERSION - 1
     with np.load(d / "int_as_left.h5.ckpt") as z:
         ck = {k: z[k] for k in z.files}
-    for version, what in ((CKPT_VERSION - 1, "checkpoint"), (CKPT_VERSION, "run-file format")):
+    # (checkpoint's version, what the message names, the version it names)
+    cases = ((CKPT_VERSION - 1, "checkpoint", CKPT_VERSION - 1), (CKPT_VERSION, "run-file format", FORMAT_VERSION - 1))
+    for version, what, named in cases:
         ck["format_version"] = np.asarray(version)
         with open(old / "run.h5.ckpt", "wb") as fh:
             np.savez(fh, **ck)
@@ -398,7 +400,7 @@ def test_resume_of_a_run_begun_by_an_earlier_version_is_refused(interrupted):
         proc = run_cli(["run", "--out", "run.h5", "--threads", "1", "--resume"], old)
         assert proc.returncode == 2, proc.stderr
         line = one_error_line(proc)
-        assert what in line and "version" in line and str(version if what == "checkpoint" else FORMAT_VERSION - 1) in line, line
+        assert what in line and "version" in line and str(named) in line, line
         assert {p.name: file_digest(p) for p in old.iterdir()} == before, "a refused resume changed the files"
 
 

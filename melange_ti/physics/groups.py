@@ -8,10 +8,12 @@ gives it. :func:`split` cuts the bodies at such points into ``Config.GROUPS`` co
 groups (one per thread), each at the first uncrossed index at or after its share
 ``g N / G``; where none is found within half a share after it, that group and the later
 ones stay empty (the passes then run as before, on fewer threads), so that a shelf joined
-into one island is not walked to its end at every detection. The first group adds its impulses' energy terms to the run-wide
-sums as it goes; the later groups keep them per contact (``Contact.DEF_*``) and
-:func:`book_later` adds them afterwards in body order, so the sums are the same bits too.
-The correction's energy is already summed in body order (:func:`.correction.book`).
+into one island is not walked to its end at every detection.
+
+The first group adds its impulses' energy terms to the run-wide sums as it goes; the later
+groups keep them per contact (``Contact.DEF_*``) and :func:`book_later` adds them
+afterwards in body order, so the sums are the same bits too. The correction's energy is
+already summed in body order (:func:`.correction.book`).
 
 Group ``g``'s bodies are ``[ISLAND_START[g], ISLAND_START[g + 1])`` (the islands' columns,
 unused when islands are off).

@@ -125,7 +125,7 @@ SHELF = (
     Key("count", 400, "1", "icebergs in the row", lambda v: 1 <= v <= 10_000_000, "must be in [1, 10000000]"),
     Key("width", 1.0, "w", "width of every iceberg", lambda v: v > 0.0, "must be > 0"),
     Key("thickness", 1.4, "w", "mean thickness (the paper's aspect ratio 1.4)", lambda v: v > 0.0, "must be > 0"),
-    Key("gap", 0.1, "w", "gap between neighbours, and from the wall to the first iceberg", lambda v: v >= 0.0, "must be >= 0"),
+    Key.nonnegative("gap", 0.1, "w", "gap between neighbours, and from the wall to the first iceberg"),
     Key(
         "tilt",
         0.01,
@@ -134,19 +134,12 @@ SHELF = (
         lambda v: 0.0 <= v <= math.pi,
         "must be in [0, pi]",
     ),
-    Key(
-        "thickness_std",
-        0.0,
-        "w",
-        "standard deviation of a normal spread of thicknesses (0: all equal)",
-        lambda v: v >= 0.0,
-        "must be >= 0",
-    ),
+    Key.nonnegative("thickness_std", 0.0, "w", "standard deviation of a normal spread of thicknesses (0: all equal)"),
 )
 
 START = (
     Key("file", "", "", "a run file (relative to the scene file) whose snapshot is the initial state"),
-    Key("time", 0.0, "sqrt(w/g)", "the last snapshot at or before this time is used", lambda v: v >= 0.0, "must be >= 0"),
+    Key.nonnegative("time", 0.0, "sqrt(w/g)", "the last snapshot at or before this time is used"),
 )
 
 ICEBERG = (

@@ -24,22 +24,8 @@ EFFECT = Effect(
     name="added_mass",
     doc="beyond the paper: the water's added mass C_a rho_w A_sub and added inertia C_i rho_w J_sub",
     keys=(
-        Key(
-            "added_mass",
-            0.5,
-            "1",
-            "C_a, added-mass coefficient (used with the added_mass effect)",
-            lambda v: v >= 0.0,
-            "must be >= 0",
-        ),
-        Key(
-            "added_inertia",
-            0.5,
-            "1",
-            "C_i, added-inertia coefficient (used with the added_mass effect)",
-            lambda v: v >= 0.0,
-            "must be >= 0",
-        ),
+        Key.nonnegative("added_mass", 0.5, "1", "C_a, added-mass coefficient (used with the added_mass effect)"),
+        Key.nonnegative("added_inertia", 0.5, "1", "C_i, added-inertia coefficient (used with the added_mass effect)"),
     ),
     params=(
         Column("ADDED_MASS", "constant", "1", "added-mass coefficient C_a", source="physics.added_mass"),

@@ -27,6 +27,15 @@ class Key:
     rule: Callable[[Any], bool] | None = None
     accepts: str = ""
 
+    @classmethod
+    def nonnegative(cls, name: str, default: Any, units: str, doc: str) -> Key:
+        """A key whose value must be ``>= 0`` (a rate, a coefficient, a gap)."""
+        return cls(name, default, units, doc, _nonnegative, "must be >= 0")
+
+
+def _nonnegative(v) -> bool:
+    return v >= 0.0
+
 
 @dataclass(frozen=True)
 class Effect:

@@ -12,22 +12,8 @@ EFFECT = Effect(
     name="drag",
     doc="linear damping of velocity and angular velocity at the given rates",
     keys=(
-        Key(
-            "drag",
-            0.01,
-            "1 / sqrt(w/g)",
-            "rate of linear drag on (vx, vz): dv/dt = -drag v (the paper's 0.01)",
-            lambda v: v >= 0.0,
-            "must be >= 0",
-        ),
-        Key(
-            "angular_drag",
-            0.01,
-            "1 / sqrt(w/g)",
-            "rate of linear drag on omega: domega/dt = -angular_drag omega",
-            lambda v: v >= 0.0,
-            "must be >= 0",
-        ),
+        Key.nonnegative("drag", 0.01, "1 / sqrt(w/g)", "rate of linear drag on (vx, vz): dv/dt = -drag v (the paper's 0.01)"),
+        Key.nonnegative("angular_drag", 0.01, "1 / sqrt(w/g)", "rate of linear drag on omega: domega/dt = -angular_drag omega"),
     ),
     params=(
         Column("DRAG_LIN", "constant", "1 / sqrt(w/g)", "linear drag rate", source="physics.drag"),

@@ -23,13 +23,8 @@ EFFECT = Effect(
     doc="beyond the paper: the water's quadratic pressure drag on the submerged part, "
     "F = -0.5 rho_w C_d P(v) |v| v and a matching torque; booked in drag_dissipated",
     keys=(
-        Key(
-            "form_drag",
-            1.0,
-            "1",
-            "C_d, pressure drag coefficient of the submerged part (used with the form_drag effect)",
-            lambda v: v >= 0.0,
-            "must be >= 0",
+        Key.nonnegative(
+            "form_drag", 1.0, "1", "C_d, pressure drag coefficient of the submerged part (used with the form_drag effect)"
         ),
     ),
     params=(Column("FORM_DRAG", "constant", "1", "pressure drag coefficient C_d", source="physics.form_drag"),),

@@ -23,13 +23,8 @@ EFFECT = Effect(
     doc="beyond the paper: Coulomb friction at iceberg-iceberg and wall contacts, |J_t| <= friction * J_n "
     "(stick or slip); booked in friction_dissipated",
     keys=(
-        Key(
-            "friction",
-            0.3,
-            "1",
-            "mu, Coulomb friction coefficient of ice on ice and on the wall (used with the friction effect)",
-            lambda v: v >= 0.0,
-            "must be >= 0",
+        Key.nonnegative(
+            "friction", 0.3, "1", "mu, Coulomb friction coefficient of ice on ice and on the wall (used with the friction effect)"
         ),
     ),
     params=(Column("FRICTION", "constant", "1", "Coulomb friction coefficient mu", source="physics.friction"),),
