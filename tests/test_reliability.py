@@ -312,6 +312,43 @@ def test_reader_follows_the_running_file(interrupted):
     assert counts == sorted(counts), f"the snapshot count seen by a reader went down: {counts}"
 
 
+def test_time_grows_alone_in_its_own_flush(tmp_path, monkeypatch):
+    """The follower above catches a race only sometimes (CI once saw diagnostics/time at 6
+    rows and the rest at 1): HDF5 writes a flush's dirty metadata in address order, and
+    ``time`` is each group's first dataset. So the writer's protocol is checked directly:
+    at every flush, either no ``time`` grows, or only the ``time`` datasets grow, and to no
+    more rows than every other dataset of their group already held at the previous flush."""
+    from melange_ti.io.hdf5 import DIAGNOSTICS, STATE, RunWriter
+
+    lengths = []
+    real_flush = h5py.File.flush
+
+    def recording_flush(self):
+        if "diagnostics" in self:
+            lengths.append({f"{g}/{k}": self[g][k].shape[0] for g in ("snapshots", "diagnostics") for k in self[g]})
+        return real_flush(self)
+
+    monkeypatch.setattr(h5py.File, "flush", recording_flush)
+    w = RunWriter(tmp_path / "r.h5", {}, {"width": np.ones(3)})
+    state = {k: np.ones(3) for k in STATE}
+    for i in range(4):
+        for j in range(i):  # 0, 1, 2, 3 queued diagnostic rows per snapshot
+            w.diagnostic({**{k: 1.0 for k in DIAGNOSTICS}, "time": float(i + j / 4)})
+        w.snapshot(float(i), state)
+    w.flush()
+    w.close(True)
+    assert lengths[-1]["snapshots/time"] == 4 and lengths[-1]["diagnostics/time"] == 6
+    for before, after in zip(lengths[:-1], lengths[1:], strict=True):
+        for g in ("snapshots", "diagnostics"):
+            if after[f"{g}/time"] == before[f"{g}/time"]:
+                continue
+            grown = [k for k in after if after[k] != before[k] and not k.endswith("/time")]
+            assert not grown, f"{g}/time grew in the same flush as {grown}"
+            for k in after:
+                if k.startswith(g + "/") and k != f"{g}/time":
+                    assert before[k] >= after[f"{g}/time"], f"{g}/time reached {after[f'{g}/time']} rows, {k} {before[k]}"
+
+
 def test_resume_after_kill9_is_bit_identical(interrupted, reference):
     _interrupted_ok(interrupted, "kill")
     d = interrupted["dir"]

@@ -1,7 +1,8 @@
 """The run file (docs/output.md): streamed, chunked, flushed after every write.
 
-Rows are appended with the ``time`` dataset of each group written last, so a reader (or a
-file cut short by ``kill -9``) can trust the shortest consistent length:
+Rows are appended with the ``time`` dataset of each group grown last, in a flush of its own
+(:meth:`RunWriter._write`), so a reader (or a file cut short by ``kill -9``) can trust the
+shortest consistent length:
 :func:`consistent_length`. The file uses HDF5's default (oldest compatible) format and no
 SWMR: with the HDF5 2.x library a file opened with ``libver="latest"`` for writing keeps a
 status flag in its superblock after a kill, and plain ``h5py.File(path)`` then refuses it.
@@ -189,17 +190,7 @@ class RunWriter:
 
     def snapshot(self, t: float, state: dict[str, np.ndarray]) -> None:
         """Append one snapshot of every iceberg; written and flushed at once."""
-        self._check_room()
-        k = self._nsnap
-        try:
-            for name in (*STATE, "time"):
-                ds = self._snap[name]
-                ds.resize(k + 1, axis=0)
-                ds[k] = t if name == "time" else state[name]
-            self._nsnap = k + 1
-        except (OSError, RuntimeError) as exc:
-            raise OutputError(f"{self.path}: write failed ({self._reason(exc)})") from None
-        self.flush()
+        self._write((t, state))
 
     def diagnostic(self, row: dict[str, float]) -> None:
         """Queue one diagnostic row; rows are written at the next :meth:`flush`."""
@@ -207,18 +198,43 @@ class RunWriter:
 
     def flush(self) -> None:
         """Write queued diagnostics (time last) and flush the file to disk."""
-        if self._pending:
+        self._write(None)
+
+    def _write(self, snap: tuple[float, dict[str, np.ndarray]] | None) -> None:
+        """Append a snapshot (if any) and the queued diagnostics in two flushes: every other
+        dataset first, then the two ``time`` datasets. HDF5 writes its dirty metadata in
+        address order at a flush, and ``time`` is each group's first dataset, so within one
+        flush a reader opening the file meanwhile could see a ``time`` longer than the data
+        it stands for; after the first flush the data are on disk before ``time`` grows."""
+        m = len(self._pending)
+        if snap is not None or m:
             self._check_room()
         try:
-            if self._pending:
+            if snap is not None:
+                k = self._nsnap
+                for name in STATE:
+                    ds = self._snap[name]
+                    ds.resize(k + 1, axis=0)
+                    ds[k] = snap[1][name]
+            if m:
                 k = self._ndiag
-                m = len(self._pending)
-                for name in (*DIAGNOSTICS, "time"):
+                for name in DIAGNOSTICS:
                     ds = self._diag[name]
                     ds.resize(k + m, axis=0)
                     ds[k:] = np.array([r[name] for r in self._pending], dtype=ds.dtype)
+                self.f.flush()
+                ds = self._diag["time"]
+                ds.resize(k + m, axis=0)
+                ds[k:] = np.array([r["time"] for r in self._pending], dtype=ds.dtype)
                 self._ndiag = k + m
                 self._pending.clear()
+            elif snap is not None:
+                self.f.flush()
+            if snap is not None:
+                ds = self._snap["time"]
+                ds.resize(self._nsnap + 1, axis=0)
+                ds[self._nsnap] = snap[0]
+                self._nsnap += 1
             self.f.flush()
         except (OSError, RuntimeError) as exc:
             raise OutputError(f"{self.path}: write failed ({self._reason(exc)})") from None
