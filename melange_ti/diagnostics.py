@@ -79,6 +79,14 @@ FIELDS: tuple[Field, ...] = (
         "potential energy (gravity and buoyancy), summed over icebergs",
         lambda e: float(np.sum(e.sample["potential"])),
     ),
+    Field(
+        "wave_energy",
+        "f8",
+        E,
+        "energy of the waves, rho g / 2 int eta^2 dx + rho / 2 int phi G phi dx (0 without the waves effect)",
+        lambda e: float(e.sample.get("wave_energy", 0.0)),
+        since=5,
+    ),
     *_ledger_fields(),
     Field(
         "contacts",

@@ -176,11 +176,15 @@ def output_page() -> str:
         "| variable | dimensions | units | meaning |",
         "| --- | --- | --- | --- |",
         "| `/iceberg` | (iceberg) | 1 | iceberg index, the coordinate of the `iceberg` dimension |",
+        "| `/wave_cell` | (wave_cell) | 1 | with the waves effect: index of the wave grid's cell, the coordinate of "
+        "the `wave_cell` dimension |",
     ]
-    dims = {"icebergs": "(iceberg)", "snapshots": "(time, iceberg)", "diagnostics": "(time)"}
+    dims = {"icebergs": "(iceberg)", "snapshots": "(time, iceberg)", "diagnostics": "(time)", "waves": "(wave_cell)"}
     for group, variables in meta.items():
         for name, attrs in sorted(variables.items(), key=lambda kv: (kv[0] != "time", kv[0])):
             d = "(time)" if name == "time" else dims[group]
+            if (group, name) == ("snapshots", "eta"):
+                d = "(time, wave_cell)"
             out.append(f"| `/{group}/{name}` | {d} | {_cell(attrs['units'])} | {_cell(attrs['long_name'])} |")
     out += [
         "",
@@ -208,7 +212,8 @@ def _budget_section() -> list[str]:
         "E(0) - E(t) = " + " + ".join(ENERGY_LEDGERS) + " + residual",
         "```",
         "",
-        "with `E = kinetic_energy + potential_energy`. A ledger of an effect the scene does not name",
+        "with `E = kinetic_energy + potential_energy + wave_energy` (`wave_energy` is 0 without the",
+        "waves effect). A ledger of an effect the scene does not name",
         "stays zero. `melange-ti plot` draws this budget (`energy_budget.png`) and writes the",
         "residual at the end to `summary.csv` (`energy_residual_end`, with the ledgers summed in",
         "`budget`); `docs/validation.md` gives its size on the paper run.",

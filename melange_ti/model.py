@@ -24,6 +24,7 @@ from . import runtime  # noqa: F401  (imported for its patch: Taichi reuses sour
 from .errors import ContactOverflow
 from .geometry import disc_radius
 from .physics import device, narrow, stages
+from .physics.effects import waves as waves_effect
 from .physics.schema import (
     ACC_LEDGERS,
     ACCUMULATORS,
@@ -37,12 +38,14 @@ from .physics.schema import (
     LIST_POSES,
     PARAMS,
     SCRATCH,
+    WAVES,
     Arrays,
     Body,
     BodyInt,
     Config,
     Counter,
     Param,
+    Wave,
     body_width,
     contact_width,
 )
@@ -77,6 +80,7 @@ class Totals:
     wall_impulse: float
     impulse_sum: float
     friction_dissipated: float
+    wave_absorbed: float
     impulses: int
 
 
@@ -129,6 +133,11 @@ class Model:
             raise ValueError(f"mode must be 'auto', 'serial' or 'parallel', not {mode!r}")
         self.mode = mode
         self.contacts = self.fx.contacts
+        if self.fx.waves:
+            p = scene.physics
+            self.wave_cells, self.wave_dx = waves_effect.grid(p.wall_x, p.wave_end, p.wave_dx)
+        else:
+            self.wave_cells, self.wave_dx = 0, 0.0
         slots = scene.contacts.max_partners if self.fx.collisions else 1
         ncells = 1 << max(2, math.ceil(math.log2(max(n, 4)))) if self.fx.collisions else 4
         # candidate lists for the narrow phase, in both forms: the same contacts bit for bit,
@@ -156,6 +165,7 @@ class Model:
             cnt=alloc(COUNTERS),
             acc=alloc(ACCUMULATORS),
             red=ti.ndarray(ti.f64, shape=(device.red_rows(n, ncells) if self.device_parts else 1, device.RED_WIDTH)),
+            wv=ti.ndarray(self.real, shape=(2 * self.wave_cells if self.fx.waves else 1, WAVES.size)),
         )
         # where :meth:`sample` puts what it fetches (numpy: the kernel writes it in place)
         self._out, self._out_acc, self._out_cnt = self._sample_buffers(1)
@@ -187,6 +197,11 @@ class Model:
                 par[k] = _scene_value(scene, col.source)
         par[Param.BOUND_MAX] = float(bound.max())
         par[Param.EPS] = float(np.finfo(self.np_real).eps)
+        if self.fx.waves:
+            par[Param.WAVE_DX] = self.wave_dx
+            # shares of displaced water are multiples of this: their sums stay exact below 8
+            # (f64; 2 in f32), so the order of the additions does not matter (physics/waves.py)
+            par[Param.WAVE_Q] = 2.0**-50 if self.np_real is np.float64 else 2.0**-22
         a.par.from_numpy(par.astype(self.np_real))
         a.scr.from_numpy(np.zeros(a.scr.shape, dtype=self.np_real))
         a.acc.from_numpy(np.zeros(ACCUMULATORS.size))
@@ -201,7 +216,56 @@ class Model:
         cfg[Config.DISCS] = scene.contacts.discs
         cfg[Config.LISTS] = int(self.lists)
         cfg[Config.GROUPS] = self.groups
+        cfg[Config.WAVE_CELLS] = self.wave_cells
+        cfg[Config.WAVE_LOG] = (2 * self.wave_cells).bit_length() - 1 if self.wave_cells else 0
         a.cfg.from_numpy(cfg)
+        a.wv.from_numpy(self._wave_constants())
+
+    def _wave_constants(self) -> np.ndarray:
+        """The wave grid at rest, with its constants: the absorbing layer's rates, the
+        operator's symbol and the transform's twiddles (computed here, in numpy)."""
+        rows = np.zeros(self.arrays.wv.shape, dtype=np.float64)
+        m = self.wave_cells
+        if m:
+            p = self.scene.physics
+            x = self.wave_x()
+            start = p.wave_end - p.wave_sponge
+            if p.wave_sponge > 0:
+                rows[:m, Wave.SPONGE] = np.where(x > start, waves_effect.SPONGE_RATE * ((x - start) / p.wave_sponge) ** 2, 0.0)
+            k = np.pi * np.arange(m) / (m * self.wave_dx)
+            rows[:m, Wave.KT] = k * np.tanh(k * p.water_depth) / m
+            rows[:m, Wave.CR] = np.cos(np.pi * np.arange(m) / (2 * m))
+            rows[:m, Wave.CI] = np.sin(np.pi * np.arange(m) / (2 * m))
+            rows[:m, Wave.TWR] = np.cos(2 * np.pi * np.arange(m) / (2 * m))
+            rows[:m, Wave.TWI] = -np.sin(2 * np.pi * np.arange(m) / (2 * m))
+        return rows.astype(self.np_real)
+
+    # ------------------------------------------------------------------ the wave grid
+    def wave_x(self) -> np.ndarray:
+        """x of the wave grid's cell centres (waves effect; empty without it)."""
+        x0 = self.scene.physics.wall_x
+        return x0 + (np.arange(self.wave_cells) + 0.5) * self.wave_dx
+
+    def wave_state(self) -> dict[str, np.ndarray]:
+        """``eta``, ``phi`` and ``g_phi`` (``G phi``) at the cell centres (waves effect)."""
+        rows = self.arrays.wv.to_numpy()[: self.wave_cells]
+        return {"eta": rows[:, Wave.ETA].copy(), "phi": rows[:, Wave.PHI].copy(), "g_phi": rows[:, Wave.GPHI].copy()}
+
+    def set_wave_state(self, eta: np.ndarray, phi: np.ndarray | None = None) -> None:
+        """Set the sea surface (and the potential, default 0) at the cell centres."""
+        a = self.arrays
+        rows = a.wv.to_numpy()
+        rows[: self.wave_cells, Wave.ETA] = eta
+        rows[: self.wave_cells, Wave.PHI] = 0.0 if phi is None else phi
+        a.wv.from_numpy(rows)
+        stages.wave_refresh(a.cfg, a.wv)
+
+    def wave_energy(self) -> float:
+        """``rho g / 2 sum eta^2 dx + rho / 2 sum phi G phi dx`` (waves effect; else 0)."""
+        if not self.wave_cells:
+            return 0.0
+        w = self.wave_state()
+        return float(0.5 * self.wave_dx * (np.dot(w["eta"], w["eta"]) + np.dot(w["phi"], w["g_phi"])))
 
     # ------------------------------------------------------------------ host side
     def _rows(self) -> np.ndarray:
@@ -235,14 +299,18 @@ class Model:
         output event's whole fetch)."""
         a = self.arrays
         stages.sample_all(self.fx, a.b, a.par, a.acc, a.cnt, self._out, self._out_acc, self._out_cnt)
-        return self._unpack(self._out, self._out_acc, self._out_cnt, 0)
+        sample, totals = self._unpack(self._out, self._out_acc, self._out_cnt, 0)
+        if self.wave_cells:
+            sample["eta"] = self.wave_state()["eta"]
+            sample["wave_energy"] = np.array(self.wave_energy())
+        return sample, totals
 
     def advance_sampled(self, segments: list[int]) -> list[tuple[dict[str, np.ndarray], Totals]]:
         """Advance ``segments[0]`` steps and take :meth:`sample_with_totals`, then
         ``segments[1]`` steps and sample again, ...; the serial form does it all in one
         kernel launch (a run's output events between two writes). The same bits as
         :meth:`advance` and :meth:`sample_with_totals` in turn."""
-        if self.mode != "serial" or self._calibrate or len(segments) < 2:
+        if self.mode != "serial" or self._calibrate or len(segments) < 2 or self.wave_cells:
             out = []
             for steps in segments:
                 self.advance(steps)
@@ -278,6 +346,8 @@ class Model:
         out = {name: rows[:, col].copy() if col < rows.shape[1] else np.zeros(self.n) for name, col in BODY_LEDGERS.items()}
         out["acc"] = self.arrays.acc.to_numpy()
         out["counters"] = self.arrays.cnt.to_numpy()
+        if self.wave_cells:
+            out["waves"] = self.arrays.wv.to_numpy()  # the grid's state and its G phi
         return out
 
     def set_accumulators(self, acc: dict[str, np.ndarray]) -> None:
@@ -291,6 +361,8 @@ class Model:
         stored = np.asarray(acc["counters"], dtype=np.int64)[: COUNTERS.size]
         counters[: stored.size] = stored  # a checkpoint from before a counter was added
         self.arrays.cnt.from_numpy(counters)
+        if self.wave_cells:
+            self.arrays.wv.from_numpy(np.asarray(acc["waves"], dtype=self.np_real))
 
     def clear_candidate_lists(self) -> None:
         """Forget the narrow phase's candidate lists: the next detection searches every pair

@@ -212,7 +212,7 @@ class Guard:
                 break
         row = self.diagnostics.last if self.diagnostics.last_step == step else None
         if bad is None and row is not None:
-            energy = row["kinetic_energy"] + row["potential_energy"]
+            energy = row["kinetic_energy"] + row["potential_energy"] + row["wave_energy"]
             rise = energy - sim.e0
             if not math.isfinite(energy) or rise > sim.total_mass:
                 worst = int(np.argmax(s["kinetic"]))
@@ -376,7 +376,7 @@ class Simulation:
             }
             if self.out.exists():
                 self.out.unlink()
-            writer = RunWriter(self.out, attrs, model.constants(), dtype)
+            writer = RunWriter(self.out, attrs, model.constants(), dtype, wave_x=model.wave_x())
         self.writer = writer
         self.total_mass = float(model.constants()["mass"].sum())
         # the first launch compiles the kernels, or loads them from Taichi's offline cache
@@ -479,7 +479,7 @@ class Simulation:
         if first:
             self.x0_max = float(np.max(s["x"]))
             self.p0 = float(np.sum(s["potential"]))
-            self.e0 = float(np.sum(s["kinetic"])) + self.p0
+            self.e0 = float(np.sum(s["kinetic"])) + self.p0 + float(s.get("wave_energy", 0.0))
         for output in due:
             output.write(self, step, t, s)
         if self.on_event is not None:
@@ -526,7 +526,7 @@ class Simulation:
 
     def _summary(self, steps: int, wall: float) -> RunSummary:
         row = self.diagnostics.last or {}
-        energy = row.get("kinetic_energy", 0.0) + row.get("potential_energy", 0.0)
+        energy = row.get("kinetic_energy", 0.0) + row.get("potential_energy", 0.0) + row.get("wave_energy", 0.0)
         lost = self.e0 - energy
         dissipated = sum(row.get(name, 0.0) for name in diag.ENERGY_LEDGERS)
         first_wall, first_steps = self.startup or (wall, steps)

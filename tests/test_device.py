@@ -200,9 +200,11 @@ def test_hard_case_on_vulkan_within_the_models_own_rounding_sensitivity(device_r
 @pytest.mark.gpu
 @needs_vulkan
 def test_every_effect_on_vulkan_matches_the_cpu(tmp_path):
-    """form_drag, added_mass and friction (and the rest) in one scene, f64, against the CPU."""
+    """form_drag, added_mass, friction and waves (and the rest) in one scene, f64, against the
+    CPU: every dataset, the wave grid's surface included."""
     text = (
-        '[scene]\neffects = ["gravity", "buoyancy", "drag", "form_drag", "added_mass", "collisions", "wall", "friction"]\n'
+        '[scene]\neffects = ["gravity", "buoyancy", "drag", "form_drag", "added_mass", "collisions", "wall", "friction", '
+        '"waves"]\n[physics]\nwave_end = 40.0\nwave_sponge = 10.0\nwave_dx = 0.125\n'
         "[shelf]\ncount = 12\ngap = 0.35\ntilt = 0.3\n[time]\ndt = 0.02\nduration = 4.0\n"
         "[output]\nsnapshot_interval = 1.0\ndiagnostic_interval = 0.2\n"
     )

@@ -410,7 +410,7 @@ def test_resume_with_a_damaged_checkpoint_is_refused(interrupted):
 
 
 def test_resume_of_a_run_begun_by_an_earlier_version_is_refused(interrupted):
-    """A run file and checkpoint of an earlier format (3: before friction's ledger) cannot be
+    """A run file and checkpoint of an earlier format (before the waves ledger) cannot be
     continued (its scene text and ledgers differ): one line naming the version, status 2,
     files untouched; the run file alone (a fresh checkpoint) is refused the same way."""
     import numpy as np

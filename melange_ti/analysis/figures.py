@@ -306,6 +306,8 @@ ENERGY_STYLE = {
     "impulse_offset": ("impulses' half-kick offset", "tab:green", ":", 1.2),
     "added_mass": ("added-mass exchange", "tab:brown", "-", 1.2),
     "friction": ("friction dissipated", "tab:cyan", "-", 1.2),
+    "waves": ("wave energy gained", "tab:olive", "-", 1.2),
+    "wave_absorbed": ("wave energy absorbed at the open end", "tab:gray", "-", 1.2),
     "residual": ("residual: energy lost but not booked (the time integrator's error)", "0.4", "--", 1.2),
 }
 
@@ -328,7 +330,7 @@ def fig_energy_budget(groups: Sequence[Group], units: Units):
         ax = axes[i // ncol, i % ncol]
         grid, terms = energy_terms(g)
         for name in stats.ENERGY_TERMS:
-            if name in stats.LEDGER_TERMS and not np.any(terms[name].mean):
+            if (name in stats.LEDGER_TERMS or name == "waves") and not np.any(terms[name].mean):
                 continue  # a ledger that booked nothing (an effect the runs do not name)
             # a ledger added later (an effect's) is drawn with a default style
             label, color, ls, lw = ENERGY_STYLE.get(name, (f"{name} dissipated", None, "-", 1.2))

@@ -191,7 +191,7 @@ def ledger_term(name: str) -> str:
 
 # every energy ledger of the schema (diagnostics.ENERGY_LEDGERS) is a term of the budget
 LEDGER_TERMS = {ledger_term(name): name for name in ENERGY_LEDGERS}
-ENERGY_TERMS = ("released", "kinetic", *LEDGER_TERMS, "residual")
+ENERGY_TERMS = ("released", "kinetic", "waves", *LEDGER_TERMS, "residual")
 
 
 def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -203,11 +203,12 @@ def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray
     - ``kinetic``: kinetic energy gained, ``E_k(t) - E_k(0)``;
     - one term per energy ledger (:data:`LEDGER_TERMS`: ``drag``, ``collision``,
       ``correction``, ...): cumulative energy removed by it (0 where an older file lacks it);
+    - ``waves``: wave energy gained, ``E_w(t) - E_w(0)`` (0 without the waves effect);
     - ``residual``: ``E(0) - E(t) - sum(ledgers)``, the integrator's error;
-    - ``total_loss``: ``E(0) - E(t)`` with ``E = E_k + E_p``.
+    - ``total_loss``: ``E(0) - E(t)`` with ``E = E_k + E_p + E_w``.
 
     By construction ``sum(ledgers) + residual == total_loss`` and
-    ``released == kinetic + sum(ledgers) + residual`` (up to rounding).
+    ``released == kinetic + waves + sum(ledgers) + residual`` (up to rounding).
     """
     pe = np.asarray(diagnostics["potential_energy"], dtype=float)
     ke = np.asarray(diagnostics["kinetic_energy"], dtype=float)
@@ -218,11 +219,13 @@ def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray
         term: np.asarray(diagnostics[name], dtype=float) if name in diagnostics else np.zeros_like(pe)
         for term, name in LEDGER_TERMS.items()
     }
-    energy = ke + pe
+    we = np.asarray(diagnostics["wave_energy"], dtype=float) if "wave_energy" in diagnostics else np.zeros_like(pe)
+    energy = ke + pe + we
     total_loss = energy[0] - energy
     return {
         "released": pe[0] - pe,
         "kinetic": ke - ke[0],
+        "waves": we - we[0],
         **ledgers,
         "residual": total_loss - sum(ledgers.values()),
         "total_loss": total_loss,

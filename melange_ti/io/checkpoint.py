@@ -19,7 +19,8 @@ def checkpoint_path(run_path: str | Path) -> Path:
     return run_path.with_name(run_path.name + ".ckpt")
 
 
-FORMAT_VERSION = 4  # 4: the friction ledger in acc; 3: ledgers and counters named by the schema
+FORMAT_VERSION = 5  # 5: the waves ledger in acc (and the wave grid, with waves); 4: the friction ledger in acc;
+# 3: ledgers and counters named by the schema
 
 
 def save(path: str | Path, data: dict[str, np.ndarray | str | int | float]) -> None:

@@ -30,16 +30,18 @@ import h5py
 import numpy as np
 
 from ..diagnostics import FIELDS
-from ..physics.schema import BODIES
+from ..physics.schema import BODIES, WAVES
 from ..physics.schema import STATE_NAMES as STATE
 
+# 5: wave_energy and wave_absorbed (0 without the waves effect); with it /waves/x and
+# /snapshots/eta;
 # 4: friction_dissipated (the friction effect's ledger, 0 without it), the taichi_arch attribute;
 # 3: every diagnostic of diagnostics.FIELDS with since <= 3 (contacts, wall_force,
 # impulse_rate, impulse_offset_work, added_mass_work were added during version 2);
 # 2: self-describing as netCDF-4 (dimension scales, units and long_name on every variable,
 # global attributes); 1: plain HDF5 (still read). A diagnostic added later carries the next
 # version as its ``since``, and the figures read the older files without it.
-FORMAT_VERSION = 4
+FORMAT_VERSION = 5
 SCENE_ATTR = "scene_toml"  # root attribute: the resolved scene, as run (TOML text)
 COMPLETE_ATTR = "complete"  # root attribute: True once the run reached its end
 DIAGNOSTICS = tuple(f.name for f in FIELDS)
@@ -62,9 +64,12 @@ def variable_attrs() -> dict[str, dict[str, dict[str, str]]]:
     bergs = {k: {"units": cols[k].units, "long_name": cols[k].doc} for k in ("width", "thickness", "mass", "inertia")}
     snaps = {k: {"units": cols[k].units, "long_name": cols[k].doc} for k in STATE}
     diags = {f.name: {"units": f.units, "long_name": f.long_name} for f in FIELDS}
+    wave = {c.output: c for c in WAVES.columns if c.output}
+    snaps["eta"] = {"units": wave["eta"].units, "long_name": wave["eta"].doc + " (waves effect)"}
     for g in (snaps, diags):
         g["time"] = {"units": TIME_UNITS, "long_name": "time", "axis": "T"}
-    return {"icebergs": bergs, "snapshots": snaps, "diagnostics": diags}
+    waves = {"x": {"units": "w", "long_name": "centre of the wave grid's cell"}}
+    return {"icebergs": bergs, "snapshots": snaps, "diagnostics": diags, "waves": waves}
 
 
 class OutputError(RuntimeError):
@@ -90,13 +95,14 @@ class RunWriter:
         dtype: type = np.float64,
         mode: str = "w",
         resume_time: float | None = None,
+        wave_x: np.ndarray | None = None,
     ):
         self.path = Path(path)
         self.dtype = np.dtype(dtype)
         try:
             if mode == "w":
                 self.f = h5py.File(self.path, "w", locking=False)
-                self._create(attrs or {}, constants or {})
+                self._create(attrs or {}, constants or {}, wave_x)
             else:
                 self.f = h5py.File(self.path, "r+", locking=False)
                 self._truncate(resume_time)
@@ -105,7 +111,8 @@ class RunWriter:
             raise OutputError(f"--out {str(self.path)!r}: cannot write ({_reason(exc)})") from None
         self._pending: list[dict] = []
         # Dataset handles looked up once: h5py's group lookup costs more than a small write.
-        self._snap = {k: self.f["snapshots"][k] for k in ("time", *STATE)}
+        self._state = (*STATE, "eta") if "eta" in self.f["snapshots"] else STATE
+        self._snap = {k: self.f["snapshots"][k] for k in ("time", *self._state)}
         self._diag = {k: self.f["diagnostics"][k] for k in ("time", *DIAGNOSTICS)}
         self._nsnap = self._snap["time"].shape[0]
         self._ndiag = self._diag["time"].shape[0]
@@ -114,9 +121,9 @@ class RunWriter:
         # between writes and the file stays whole.
         x = self._snap["x"]
         snap_chunk = x.chunks[0] * x.chunks[1] * x.dtype.itemsize if x.chunks else 0
-        self._room = 2 * (len(STATE) * snap_chunk + (len(DIAGNOSTICS) + 2) * 8192) + (64 << 10)
+        self._room = 2 * (len(self._state) * snap_chunk + (len(DIAGNOSTICS) + 2) * 8192) + (64 << 10)
 
-    def _create(self, attrs: dict, constants: dict[str, np.ndarray]) -> None:
+    def _create(self, attrs: dict, constants: dict[str, np.ndarray], wave_x: np.ndarray | None = None) -> None:
         f = self.f
         attrs = dict(attrs)  # history is taken out below; the caller's dict stays as it was
         version = attrs.get("melange_ti_version", "")
@@ -151,6 +158,22 @@ class RunWriter:
             ds.dims[0].attach_scale(st)
             ds.dims[1].attach_scale(iceberg)
             ds.attrs.update(meta["snapshots"][k])
+        if wave_x is not None and len(wave_x):
+            # the waves effect: its cells (dimension wave_cell, at the root like iceberg, so
+            # netCDF readers see it from every group), their centres and each snapshot's surface
+            m = len(wave_x)
+            cell = f.create_dataset("wave_cell", data=np.arange(m, dtype=np.int64))
+            cell.attrs.update({"units": "1", "long_name": "index of the wave grid's cell, from the wall"})
+            cell.make_scale("wave_cell")
+            wx = f.create_group("waves").create_dataset("x", data=np.asarray(wave_x, dtype=np.float64))
+            wx.dims[0].attach_scale(cell)
+            wx.attrs.update(meta["waves"]["x"])
+            ds = s.create_dataset(
+                "eta", shape=(0, m), maxshape=(None, m), dtype=self.dtype, chunks=(max(1, min(64, 65536 // m)), m)
+            )
+            ds.dims[0].attach_scale(st)
+            ds.dims[1].attach_scale(cell)
+            ds.attrs.update(meta["snapshots"]["eta"])
         d = f.create_group("diagnostics")
         dt_ = d.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(1024,))
         dt_.make_scale("time")
@@ -212,7 +235,7 @@ class RunWriter:
         try:
             if snap is not None:
                 k = self._nsnap
-                for name in STATE:
+                for name in self._state:
                     ds = self._snap[name]
                     ds.resize(k + 1, axis=0)
                     ds[k] = snap[1][name]

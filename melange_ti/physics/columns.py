@@ -50,6 +50,10 @@ class Acc:
     """Slots of ``acc`` (accumulators)."""
 
 
+class Wave:
+    """Columns of ``wv`` (the wave grid, with the waves effect)."""
+
+
 ROLES = ("state", "constant", "cache", "scratch", "ledger", "counter", "config")
 E = "rho_w g w^3"  # energy per unit length into the page (g = rho_w = w = 1)
 

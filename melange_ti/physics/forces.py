@@ -16,6 +16,7 @@ from .effects import ADDED, DAMPERS, FORCES, POST_DRIFT, POTENTIALS
 from .schema import Body, Param
 
 HAS_TORQUE = tuple(e for e in FORCES if e.torque)
+HORIZONTAL = tuple(e for e in FORCES if e.horizontal)
 
 
 def any_on(effects, fx) -> bool:
@@ -57,14 +58,19 @@ def kick(fx: ti.template(), a: ti.template(), i):
     dt = a.par[Param.DT]
     m, inertia = added_inertia(fx, a, i)
     v0 = ti.Vector([b[i, Body.VX], b[i, Body.VZ], b[i, Body.OM]])
+    fxs = 0.0
     fz = 0.0
     tau = 0.0
     for e in ti.static(FORCES):
         if ti.static(e.on(fx)):
-            f = e.force(a, i)
-            fz += f[0]
+            f = e.force(a, i)  # (f_x, f_z, tau)
+            if ti.static(e.horizontal):
+                fxs += f[0]
+            fz += f[1]
             if ti.static(e.torque):
-                tau += f[1]
+                tau += f[2]
+    if ti.static(any_on(HORIZONTAL, fx)):
+        b[i, Body.VX] += dt * fxs / m
     if ti.static(any_on(FORCES, fx)):
         b[i, Body.VZ] += dt * fz / m
     if ti.static(any_on(HAS_TORQUE, fx)):

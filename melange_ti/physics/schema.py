@@ -38,7 +38,7 @@ from __future__ import annotations
 import dataclasses
 from typing import NamedTuple
 
-from .columns import Acc, Body, BodyInt, Cell, Column, Config, Contact, Counter, E, ListPose, Param, Scratch, Table
+from .columns import Acc, Body, BodyInt, Cell, Column, Config, Contact, Counter, E, ListPose, Param, Scratch, Table, Wave
 from .effects import REGISTRY
 
 LINE_COLUMNS = 8  # 64-byte cache line of f64 columns
@@ -211,6 +211,8 @@ CONFIG = Table(
         Column("DISCS", "config", "1", "discs per iceberg"),
         Column("LISTS", "config", "1", "1 if the narrow phase keeps candidate lists"),
         Column("GROUPS", "config", "1", "parallel form without islands: contiguous groups the sequential passes split into"),
+        Column("WAVE_CELLS", "config", "1", "waves: cells of the wave grid, M (a power of 2; 0 without waves)"),
+        Column("WAVE_LOG", "config", "1", "waves: log2 of the transform's length 2M"),
     ),
     Config,
 )
@@ -276,8 +278,44 @@ ACCUMULATORS = Table(
             budget=True,
             since=4,
         ),
+        Column(
+            "WAVE_ABSORBED",
+            "ledger",
+            E,
+            "wave energy removed by the absorbing layer at the open end (0 without the waves effect)",
+            "wave_absorbed",
+            owner="waves",
+            budget=True,
+            since=5,
+        ),
     ),
     Acc,
+)
+
+WAVES = Table(
+    "waves",
+    "wv",
+    "real",
+    "(2 M, Wave.SIZE)",
+    "the wave grid (waves effect; one row without it): cell j's surface at row j < M, the cosine "
+    "transform's work on all 2M rows (physics/waves.py)",
+    (
+        Column("ETA", "state", "w", "sea surface height above the still water line at the cell's centre", "eta"),
+        Column("PHI", "state", "w sqrt(g w)", "velocity potential at the surface"),
+        Column("GPHI", "cache", "w / sqrt(w/g)", "G phi, the surface's vertical velocity without sources (set each step)"),
+        Column("SRC", "scratch", "w", "water the icebergs displaced into the cell this step"),
+        Column("SPONGE", "constant", "1 / sqrt(w/g)", "relaxation rate of the absorbing layer"),
+        Column("KT", "constant", "1 / w", "row m: k_m tanh(k_m H) of cosine mode m, with the transform's scale"),
+        Column("CR", "constant", "1", "row m: cos(pi m / 2M)"),
+        Column("CI", "constant", "1", "row m: sin(pi m / 2M)"),
+        Column("TWR", "constant", "1", "row k < M: cos(2 pi k / 2M), the transform's twiddles"),
+        Column("TWI", "constant", "1", "row k < M: -sin(2 pi k / 2M)"),
+        Column("RE", "scratch", "1", "the forward transform, real part"),
+        Column("IM", "scratch", "1", "the forward transform, imaginary part"),
+        Column("QR", "scratch", "1", "the inverse transform, real part"),
+        Column("QI", "scratch", "1", "the inverse transform, imaginary part"),
+    ),
+    Wave,
 )
 
 BASE_PARAMS = (
@@ -311,6 +349,7 @@ class Arrays(NamedTuple):
     cnt: object
     acc: object
     red: object  # (blocks, device.RED_WIDTH), f64: partial sums of the device's parallel parts (physics/device.py)
+    wv: object  # (2M, Wave.SIZE): the wave grid (waves effect; (1, Wave.SIZE) without it)
 
 
 def _build():
@@ -331,7 +370,7 @@ BODIES, PARAMS = _build()
 Body.KICK_VX = Body.SHIFT_X
 Body.KICK_VZ = Body.SHIFT_Z
 Body.KICK_OM = Body.POT_START
-TABLES = (BODIES, BODY_INTS, CONTACTS, LIST_POSES, CELLS, PARAMS, SCRATCH, CONFIG, COUNTERS, ACCUMULATORS)
+TABLES = (BODIES, BODY_INTS, CONTACTS, LIST_POSES, CELLS, PARAMS, SCRATCH, CONFIG, COUNTERS, ACCUMULATORS, WAVES)
 
 NAMESPACES = {t.namespace.__name__: t for t in TABLES}
 

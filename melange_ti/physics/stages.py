@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import taichi as ti
 
-from . import broad, correction, device, forces, groups, impulses, islands, narrow
+from . import broad, correction, device, forces, groups, impulses, islands, narrow, waves
 from .schema import BODIES, Arrays, Counter, allocated
 
 MAX_DETECT = 16  # rounds of (detection,) impulse pass and check per step
@@ -52,6 +52,10 @@ def contacts(fx) -> bool:
 
 def collisions(fx) -> bool:
     return bool(fx.collisions)
+
+
+def has_waves(fx) -> bool:
+    return bool(fx.waves)
 
 
 @dataclass(frozen=True)
@@ -203,7 +207,24 @@ CORRECTION = Stage(
     ),
 )
 
-STEP = (FORCES, Rounds((BROAD, NARROW, ISLANDS), (IMPULSES, CHECK), MAX_DETECT, needs=contacts), DRIFT, CORRECTION)
+# the waves effect: phi's kick with the icebergs', and after they moved the grid's step
+# (what they displaced, eta += dt G phi, the absorbing layer in cell order): physics/waves.py
+WAVE_KICK = Stage("wave_kick", waves.kick_grid, (Part(waves.kick_grid),), needs=has_waves)
+WAVES = Stage(
+    "waves",
+    waves.waves_serial,
+    (Part(waves.update), Part(waves.sponge, sequential=True)),
+    needs=has_waves,
+)
+
+STEP = (
+    FORCES,
+    WAVE_KICK,
+    Rounds((BROAD, NARROW, ISLANDS), (IMPULSES, CHECK), MAX_DETECT, needs=contacts),
+    DRIFT,
+    CORRECTION,
+    WAVES,
+)
 # every stage once, in the order STEP runs them
 STAGES = tuple(s for part in STEP for s in ((part,) if part.kind == "stage" else (*part.detect, *part.solve)))
 STAGE_NAMES = tuple(s.name for s in STAGES)
@@ -251,9 +272,10 @@ def steps_serial(
     cnt: arr,
     acc: arr,
     red: arr,
+    wv: arr,
 ):
     """``steps`` whole steps in one call, every loop serial (small N: no launch costs)."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, wv))
     ti.loop_config(serialize=True)
     for _ in range(1):
         for i in range(b.shape[0]):
@@ -280,9 +302,10 @@ def run_part(
     cnt: arr,
     acc: arr,
     red: arr,
+    wv: arr,
 ):
     """One part of a stage; its outer loop over bodies is parallel unless it is sequential."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, wv))
     if ti.static(part.sequential):
         ti.loop_config(serialize=True)
         for _ in range(1):
@@ -293,8 +316,15 @@ def run_part(
 
 # ---------------------------------------------------------------- host-side helpers
 @ti.kernel
+def wave_refresh(cfg: arr, wv: arr):
+    """``GPHI = G PHI`` after the host set the wave grid (the step keeps it current)."""
+    a = ti.static(Arrays(None, None, None, None, None, None, None, None, None, cfg, None, None, None, wv))
+    waves.apply_g(a)
+
+
+@ti.kernel
 def orient_all(b: arr):
-    a = ti.static(Arrays(b, None, None, None, None, None, None, None, None, None, None, None, None))
+    a = ti.static(Arrays(b, None, None, None, None, None, None, None, None, None, None, None, None, None))
     for i in range(b.shape[0]):
         forces.orient(a, i)
 
@@ -345,7 +375,7 @@ def sample_into(fx: ti.template(), a: ti.template(), out: ti.template(), out_acc
 def sample_all(fx: ti.template(), b: arr, par: arr, acc: arr, cnt: arr, out: arr, out_acc: arr, out_cnt: arr):
     """Sample 0 of ``out`` (:func:`sample_into`): one launch, and no transfer where the
     outputs are the host's own numpy arrays (on the CPU Taichi writes them in place)."""
-    a = ti.static(Arrays(b, None, None, None, None, None, None, par, None, None, cnt, acc, None))
+    a = ti.static(Arrays(b, None, None, None, None, None, None, par, None, None, cnt, acc, None, None))
     sample_into(fx, a, out, out_acc, out_cnt, 0)
 
 
@@ -366,6 +396,7 @@ def steps_serial_sampled(
     cnt: arr,
     acc: arr,
     red: arr,
+    wv: arr,
     out: arr,
     out_acc: arr,
     out_cnt: arr,
@@ -374,7 +405,7 @@ def steps_serial_sampled(
     ``segments[1]`` steps, sample 1, ...: a run's output events between two writes in one
     launch. The same bits as one call per segment (the tilts' cos and sin are the ones
     :func:`forces.orient` would give)."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, wv))
     ti.loop_config(serialize=True)
     for _ in range(1):
         for i in range(b.shape[0]):

@@ -19,6 +19,7 @@ import tomllib
 
 from ..physics.effects import NAMES as EFFECTS
 from ..physics.effects import PAPER_EFFECTS, Effects, Key
+from ..physics.effects import waves as waves_effect
 from . import keys as K
 from .errors import SceneError, error, one_line
 from .initial import Icebergs, check_geometry, from_run, generate_shelf
@@ -292,6 +293,10 @@ def from_dict(
         iceberg_table=table,
         start=start,
     )
+    if scene.effects.waves:
+        bad = waves_effect.check(scene.physics)
+        if bad is not None:
+            raise error(*bad)
     if geometry:
         check_geometry(scene)
     return scene

@@ -37,3 +37,7 @@ def initial(sc: scene_mod.Scene) -> dict[str, np.ndarray]:
     """The scene's initial state, ``{x, z, theta, vx, vz, omega}`` as float arrays (N,)."""
     b = sc.icebergs()
     return {k: np.array(getattr(b, k), dtype=float) for k in STATE}
+
+
+# The kernel forms that must give the same bits: (mode, islands, groups) for Model
+KERNEL_FORMS = (("serial", None, None), ("parallel", False, 1), ("parallel", False, 3), ("parallel", True, None))

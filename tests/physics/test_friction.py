@@ -23,7 +23,7 @@ from melange_ti.model import Model
 from melange_ti.physics.schema import ENERGY_LEDGERS
 from melange_ti.scene import DENSITY_RATIO
 
-from .scenes import initial, make_scene
+from .scenes import KERNEL_FORMS, initial, make_scene
 
 R = DENSITY_RATIO
 MU = 0.3
@@ -226,12 +226,7 @@ def test_budget_closes_with_friction():
 def test_friction_is_bit_identical_across_kernel_forms():
     sc = capsizing_row(MU, count=30)
     results = []
-    for mode, islands, groups in (
-        ("serial", None, None),
-        ("parallel", False, 1),
-        ("parallel", False, 3),
-        ("parallel", True, None),
-    ):
+    for mode, islands, groups in KERNEL_FORMS:
         m = Model(sc, mode=mode, islands=islands, groups=groups)
         m.advance(3000)
         results.append((m.state(), m.totals()))

@@ -144,6 +144,7 @@ def test_derived_lists():
         "impulse_offset_work",
         "correction_work",
         "friction_dissipated",
+        "wave_absorbed",
     }
     from melange_ti import diagnostics
 
@@ -151,13 +152,14 @@ def test_derived_lists():
 
 
 def test_parameters_come_from_scene_keys():
-    """Every parameter slot but the two derived ones names the scene key it is filled from,
-    and that key exists."""
+    """Every parameter slot but the derived ones names the scene key it is filled from, and
+    that key exists (derived: the largest bounding radius, machine epsilon, and the wave
+    grid's spacing, a power-of-2 division of the domain, and rounding quantum)."""
     from melange_ti import scene
 
     sc = scene.load(None)
     for c in schema.PARAMS.columns:
-        if c.name in ("BOUND_MAX", "EPS"):
+        if c.name in ("BOUND_MAX", "EPS", "WAVE_DX", "WAVE_Q"):
             assert c.source is None
             continue
         section, key = c.source.split(".")

@@ -13,7 +13,7 @@ The order is the order in which forces are summed, and so part of the results' b
 
 from dataclasses import make_dataclass
 
-from . import added_mass, buoyancy, collisions, drag, form_drag, friction, gravity, wall
+from . import added_mass, buoyancy, collisions, drag, form_drag, friction, gravity, wall, waves
 from .base import Effect, Key
 
 REGISTRY: tuple[Effect, ...] = (
@@ -25,6 +25,7 @@ REGISTRY: tuple[Effect, ...] = (
     collisions.EFFECT,
     wall.EFFECT,
     friction.EFFECT,
+    waves.EFFECT,
 )
 NAMES: tuple[str, ...] = tuple(e.name for e in REGISTRY)
 PAPER_EFFECTS: tuple[str, ...] = tuple(e.name for e in REGISTRY if not e.beyond_paper)  # a scene's default

@@ -32,9 +32,18 @@ class Key:
         """A key whose value must be ``>= 0`` (a rate, a coefficient, a gap)."""
         return cls(name, default, units, doc, _nonnegative, "must be >= 0")
 
+    @classmethod
+    def positive(cls, name: str, default: Any, units: str, doc: str) -> Key:
+        """A key whose value must be ``> 0`` (a length, a spacing)."""
+        return cls(name, default, units, doc, _positive, "must be > 0")
+
 
 def _nonnegative(v) -> bool:
     return v >= 0.0
+
+
+def _positive(v) -> bool:
+    return v > 0.0
 
 
 @dataclass(frozen=True)
@@ -49,8 +58,11 @@ class Effect:
     ``terms``: which of :data:`TERMS` it has, each a ``@ti.func`` of that name in
     ``melange_ti/physics/terms/NAME.py`` (read as ``effect.force`` etc.; ``None`` when absent):
 
-    ``force(a, i) -> ti.Vector([f_z, tau])``  body force and torque on iceberg i
+    ``force(a, i) -> ti.Vector([f_x, f_z, tau])``
+                                               body force and torque on iceberg i
     ``torque``                                 True if ``force`` has a torque component
+    ``horizontal``                             True if ``force`` has a horizontal component
+                                               (only then does the kick touch ``VX``)
     ``added_inertia(a, i) -> ti.Vector([m_a, I_a])``
                                                mass and moment of inertia added to the
                                                iceberg's own (the water it carries)
@@ -74,6 +86,7 @@ class Effect:
     body_columns: tuple[Column, ...] = ()
     terms: tuple[str, ...] = ()
     torque: bool = False
+    horizontal: bool = False
     beyond_paper: bool = False
 
     def __post_init__(self):

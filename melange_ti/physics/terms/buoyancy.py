@@ -19,7 +19,7 @@ def force(a: ti.template(), i):
     """``rho_w g A`` upward at the submerged centroid: force ``A``, torque ``Sx`` about the
     centre of mass (g = rho_w = 1)."""
     mo = _moments(a, i)
-    return ti.Vector([mo[0], mo[1]])
+    return ti.Vector([0.0, mo[0], mo[1]])
 
 
 @ti.func

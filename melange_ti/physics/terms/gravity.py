@@ -7,7 +7,7 @@ from ..columns import Body, Param
 
 @ti.func
 def force(a: ti.template(), i):
-    return ti.Vector([-a.b[i, Body.MASS], 0.0])
+    return ti.Vector([0.0, -a.b[i, Body.MASS], 0.0])
 
 
 @ti.func

@@ -1,0 +1,101 @@
+"""Waves: a moving sea surface coupled to the icebergs both ways (beyond the paper).
+
+The sea surface ``eta(x, t)`` and the velocity potential at it ``phi(x, t)`` live on a 1-D
+grid of cells from the wall (``wall_x``, reflecting) to ``wave_end``, over water of depth
+``water_depth``, and obey linear water-wave theory::
+
+    d eta / dt = G phi + q,        d phi / dt = -g eta,
+
+with ``G`` the Dirichlet-to-Neumann operator of finite depth, ``k tanh(k H)`` on a wave of
+wavenumber ``k``: every wave the grid resolves has the exact dispersion
+``omega^2 = g k tanh(k H)`` (``G`` is applied through a cosine transform, which is also what
+makes both ends reflecting). The grid has a power of two of cells, so its spacing is
+``wave_dx`` or a little less. In the last ``wave_sponge`` widths before ``wave_end`` the
+surface relaxes to rest at the rate ``SPONGE_RATE ((x - x_s) / wave_sponge)^2``, absorbing
+what reaches it; the energy it removes is booked in ``wave_absorbed``.
+
+**Coupling.** Let ``h(x)`` be the thickness of an iceberg's submerged part in the column at
+``x`` (below the still water line). As an iceberg moves, the water it displaces enters the
+surface where it is, ``q = dh/dt``: a sinking iceberg raises the surface around it, which
+spreads as waves. In turn the iceberg feels the wave's pressure ``rho g eta`` on its wetted
+faces (linear, Froude-Krylov): on top of its buoyancy in the still sea,
+
+``f_x = -rho g int eta_x h dx``, ``f_z = rho g int_waterline eta dx``,
+``tau = rho g [int_waterline (x - x_G) eta dx + int eta_x M1(x) dx]``,
+
+``M1(x)`` the first moment of the submerged column about the centre's height: to first
+order in ``eta``, the buoyancy of the part submerged under the sloping local surface. The
+pair is Hamiltonian: with ``E_w = rho g / 2 int eta^2 dx + rho / 2 int phi G phi dx`` the
+icebergs' energy (their potential energy taken in the still sea) plus ``E_w`` is conserved
+but for what the sponge removes; ``wave_energy`` (a diagnostic) is ``E_w``.
+
+**Discretely.** Both integrals are taken at sample points ``SUB`` per cell, ``eta`` read
+linearly between cell centres, and ``q`` spread to the cells with the same weights (its
+adjoint), so the energy the icebergs give the water is the energy the water gets, to the
+quadrature's order. The kick uses ``eta`` at the step's start and advances ``phi``; after
+the icebergs have moved (drift and correction) ``eta`` takes ``dt G phi`` and the displaced
+water: symplectic Euler for the whole system. What each iceberg displaces is added to the
+cells with exact sums (rounded to a multiple of ``WAVE_Q`` first), so the result does not
+depend on the order of the additions: the same bits in both forms and on any thread count.
+"""
+
+from ..columns import Column
+from .base import Effect, Key
+
+SUB = 2  # sample points per grid cell for the coupling integrals
+SPONGE_RATE = 0.5  # largest relaxation rate of the absorbing layer, 1 / sqrt(w/g)
+MAX_CELLS = 1 << 16  # largest wave grid (cells)
+
+EFFECT = Effect(
+    name="waves",
+    doc="beyond the paper: a moving sea surface eta(x, t) over water of depth water_depth (linear waves, "
+    "omega^2 = g k tanh(k H)), from the wall to wave_end with an absorbing layer; the icebergs displace the "
+    "water and feel its pressure; wave_energy and wave_absorbed in the budget",
+    keys=(
+        Key.positive("water_depth", 6.0, "w", "H, depth of the water (used with the waves effect)"),
+        Key.positive("wave_dx", 0.25, "w", "largest spacing of the wave grid (used with the waves effect)"),
+        Key("wave_end", 600.0, "w", "x where the wave domain ends (used with the waves effect)", None, ""),
+        Key.nonnegative("wave_sponge", 50.0, "w", "width of the absorbing layer before wave_end (used with the waves effect)"),
+    ),
+    params=(
+        Column("WAVE_DEPTH", "constant", "w", "water depth H", source="physics.water_depth"),
+        Column("WAVE_START", "constant", "w", "x where the wave grid starts (the wall)", source="physics.wall_x"),
+        Column("WAVE_DX", "constant", "w", "wave grid spacing (wave_dx or a little less: a power of two of cells)"),
+        Column("WAVE_Q", "constant", "w", "what each iceberg adds to a cell is rounded to a multiple of this"),
+    ),
+    body_columns=(
+        Column("START_X", "scratch", "w", "waves: x at the step's start"),
+        Column("START_Z", "scratch", "w", "waves: z at the step's start"),
+        Column("START_C", "scratch", "1", "waves: cos(theta) at the step's start"),
+        Column("START_S", "scratch", "1", "waves: sin(theta) at the step's start"),
+    ),
+    terms=("force", "post_drift"),
+    torque=True,
+    horizontal=True,
+    beyond_paper=True,
+)
+
+
+def grid(wall_x: float, wave_end: float, wave_dx: float) -> tuple[int, float]:
+    """The wave grid's cells ``M`` (the power of 2 that gives a spacing of at most
+    ``wave_dx``) and its spacing, for a domain from ``wall_x`` to ``wave_end``."""
+    length = wave_end - wall_x
+    cells = 1
+    while cells * wave_dx < length * (1 - 1e-12):
+        cells *= 2
+    return max(cells, 2), length / max(cells, 2)
+
+
+def check(physics) -> tuple[str, float, str] | None:
+    """``(key, value, what would be accepted)`` if the waves keys of ``physics`` cannot make
+    a grid, else ``None``."""
+    length = physics.wave_end - physics.wall_x
+    if length <= 0:
+        return "physics.wave_end", physics.wave_end, f"must be beyond the wall (physics.wall_x = {physics.wall_x:g})"
+    if physics.wave_sponge >= length:
+        return "physics.wave_sponge", physics.wave_sponge, f"must be less than wave_end - wall_x = {length:g}"
+    cells, _ = grid(physics.wall_x, physics.wave_end, physics.wave_dx)
+    if cells > MAX_CELLS:
+        most = length / MAX_CELLS
+        return "physics.wave_dx", physics.wave_dx, f"makes more than {MAX_CELLS} wave cells; use at least {most:.4g}"
+    return None

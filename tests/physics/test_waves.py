@@ -1,0 +1,250 @@
+"""Waves (effect ``waves``): the grid alone against linear water-wave theory, then coupled to
+icebergs, with the energy budget closed and the kernel forms bit for bit.
+
+Linear waves over depth ``H`` (g = rho_w = 1): a cosine mode ``eta = a cos(k x)`` between two
+reflecting ends stands and oscillates at ``omega = sqrt(k tanh(k H))``; a packet of carrier
+``k`` travels at the group velocity ``c_g = omega / (2 k) (1 + 2 k H / sinh(2 k H))``; the
+energy ``E_w = 1/2 int eta^2 + 1/2 int phi G phi`` is conserved but for the absorbing layer.
+The time stepping (symplectic Euler: ``phi -= dt eta``, then ``eta += dt G phi``) advances a
+mode released from rest as ``eta_n = a (cos(n th) + c sin(n th))`` with
+``cos th = 1 - (omega dt)^2 / 2`` and ``c = -(omega dt)^2 / (2 sin th)``: the analytic
+``a cos(omega t)`` but for a frequency error of ``(omega dt)^2 / 24`` relative and a phase lag
+of about ``omega dt / 2``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from melange_ti.diagnostics import capsize_energy
+from melange_ti.model import Model
+from melange_ti.physics.effects import waves as waves_effect
+from melange_ti.scene import DENSITY_RATIO, SceneError
+
+from .scenes import KERNEL_FORMS, make_scene
+
+R = DENSITY_RATIO
+WAVES_ONLY = ["gravity", "buoyancy", "waves"]
+
+
+def basin(depth: float, length: float, dx: float, sponge: float = 0.0, dt: float = 0.01) -> Model:
+    """A wave grid from x = 0 to ``length`` with one iceberg far beyond its end (so it feels
+    and moves no water): the waves alone."""
+    physics = {"water_depth": depth, "wave_dx": dx, "wave_end": length, "wave_sponge": sponge}
+    berg = {"x": length + 50.0, "z": -R * 1.0 + 0.5, "width": 1.0, "thickness": 1.0}
+    return Model(make_scene(WAVES_ONLY, [berg], physics, dt=dt), mode="serial")
+
+
+def omega(k: float, depth: float) -> float:
+    return math.sqrt(k * math.tanh(k * depth))
+
+
+def group_velocity(k: float, depth: float) -> float:
+    return omega(k, depth) / (2 * k) * (1 + 2 * k * depth / math.sinh(2 * k * depth))
+
+
+def test_grid_is_a_power_of_two_no_coarser_than_asked():
+    cells, dx = waves_effect.grid(0.0, 600.0, 0.25)
+    assert cells == 4096 and dx == pytest.approx(600.0 / 4096) and dx <= 0.25
+    assert waves_effect.grid(-2.0, 62.0, 0.125) == (512, 0.125)
+
+
+@pytest.mark.parametrize("kh", [0.2, 1.0, 3.0, 6.0])
+def test_standing_wave_oscillates_at_the_finite_depth_frequency(kh):
+    """A cosine mode of the basin, over a quarter, a half and a whole period of the analytic
+    frequency: its amplitude is the time stepping's exact solution for omega^2 = g k tanh(k H)
+    within 1e-9 of the start, and cos(omega t) within the stepping's lag, omega dt."""
+    depth, length = 2.0, 64.0
+    model = basin(depth, length, 0.125)
+    mode = round(kh / depth * length / math.pi)
+    k = mode * math.pi / length
+    x = model.wave_x()
+    shape = np.cos(k * x)
+    a0 = 0.01
+    model.set_wave_state(a0 * shape)
+    w = omega(k, depth)
+    dt = model.scene.time.dt
+    done = 0
+    for frac in (0.25, 0.5, 1.0):
+        steps = round(frac * 2 * math.pi / w / dt)
+        model.advance(steps - done)
+        done = steps
+        eta = model.wave_state()["eta"]
+        amp = float(eta @ shape / (shape @ shape))
+        th = math.acos(1 - (w * dt) ** 2 / 2)
+        c = -((w * dt) ** 2) / (2 * math.sin(th))
+        assert amp == pytest.approx(a0 * (math.cos(steps * th) + c * math.sin(steps * th)), abs=1e-9 * a0), (kh, frac)
+        assert amp == pytest.approx(a0 * math.cos(w * steps * dt), abs=w * dt * a0), (kh, frac)
+        # a standing mode stays one mode: nothing leaks into the others
+        assert np.max(np.abs(eta - amp * shape)) < 1e-6 * a0
+
+
+def test_energy_is_conserved_between_reflecting_ends_to_first_order_in_dt():
+    """A hump released from rest sloshes between the two reflecting ends: E_w(t) wanders
+    by a bounded amount that shrinks at least in proportion to dt, and never drifts."""
+    spread = []
+    for dt in (0.04, 0.02):
+        model = basin(3.0, 40.0, 0.125, dt=dt)
+        x = model.wave_x()
+        model.set_wave_state(0.02 * np.exp(-(((x - 13.0) / 1.5) ** 2)))
+        e0 = model.wave_energy()
+        energies = []
+        for _ in range(60):  # 60 time units: several crossings of the basin
+            model.advance(round(1.0 / dt))
+            energies.append(model.wave_energy())
+        dev = np.abs(np.array(energies) / e0 - 1)
+        spread.append(dev.max())
+        assert dev.max() < 0.3 * dt, dt  # the stepping's half-step lag, omega dt / 2 at omega ~ 0.5
+        assert abs(energies[-1] / e0 - 1) <= dev.max()
+    assert spread[1] <= 0.6 * spread[0], spread
+
+
+def test_packet_travels_at_the_group_velocity():
+    """A packet of carrier k H = 1 starts at rest and splits into two equal packets, which
+    travel at c_g: the right one's centre of energy moves at c_g within 2%."""
+    depth = 2.0
+    model = basin(depth, 256.0, 0.125)
+    x = model.wave_x()
+    k = 0.5
+    x0 = 60.0
+    model.set_wave_state(0.01 * np.exp(-(((x - x0) / 12.0) ** 2)) * np.cos(k * (x - x0)))
+    cg = group_velocity(k, depth)
+    centres = []
+    for steps in (3000, 6000):  # t = 30 and t = 60
+        model.advance(steps - (3000 if centres else 0))
+        eta = model.wave_state()["eta"]
+        right = x > x0
+        e2 = eta[right] ** 2
+        centres.append(float(np.sum(x[right] * e2) / np.sum(e2)))
+    speed = (centres[1] - centres[0]) / 30.0
+    assert speed == pytest.approx(cg, rel=0.02), (speed, cg)
+    # not the phase velocity, which is 1.28 times faster here
+    assert abs(speed - omega(k, depth) / k) > 0.2 * cg
+
+
+def test_absorbing_layer_takes_what_reaches_it_and_books_it():
+    """A packet runs into the absorbing layer at the open end: what leaves the grid's energy
+    is what ``wave_absorbed`` booked, and almost nothing comes back."""
+    model = basin(2.0, 160.0, 0.125, sponge=40.0)
+    x = model.wave_x()
+    k = 1.0
+    envelope = 0.01 * np.exp(-(((x - 90.0) / 6.0) ** 2))
+    # a packet travelling right: eta = a cos(k x), phi = (g a / omega) sin(k x)
+    model.set_wave_state(envelope * np.cos(k * (x - 90.0)), envelope / omega(k, 2.0) * np.sin(k * (x - 90.0)))
+    e0 = model.wave_energy()
+    model.advance(20000)  # t = 200: at c_g = 0.56 it crosses the layer and back
+    e1 = model.wave_energy()
+    absorbed = model.totals().wave_absorbed
+    assert e1 < 0.01 * e0, e1 / e0
+    assert e1 + absorbed == pytest.approx(e0, rel=2e-3)
+
+
+def heaving(effects, thickness: float = 1.0, lift: float = 0.05, sponge: float = 40.0, dt: float = 0.01) -> Model:
+    draft = R * thickness
+    berg = {"x": 60.0, "z": -draft + thickness / 2 + lift, "width": 1.0, "thickness": thickness}
+    physics = {"water_depth": 6.0, "wave_dx": 0.125, "wave_end": 160.0, "wave_sponge": sponge}
+    return Model(make_scene(effects, [berg], physics, dt=dt), mode="serial")
+
+
+def body_energy(model: Model) -> float:
+    s = model.sample()
+    return float(np.sum(s["kinetic"]) + np.sum(s["potential"]))
+
+
+def test_heaving_iceberg_radiates_and_what_it_loses_the_waves_carry():
+    """A stable block (thickness 1 < 1.33 w) lifted out of equilibrium heaves. In a flat sea
+    it heaves for ever; with waves it radiates: its heave energy falls, and the energy it
+    loses is the waves' plus what the absorbing layer took, within 1e-3 of the heave energy."""
+    still = heaving(["gravity", "buoyancy"])
+    moving = heaving(WAVES_ONLY)
+    rest = body_energy(heaving(["gravity", "buoyancy"], lift=0.0))
+    heave0 = body_energy(moving) - rest
+    assert heave0 > 0
+    for _ in range(4):
+        still.advance(1000)
+        moving.advance(1000)
+    heave_still = body_energy(still) - rest
+    heave_moving = body_energy(moving) - rest
+    assert heave_still == pytest.approx(heave0, rel=0.02)  # no damping without waves
+    assert heave_moving < 0.2 * heave0, heave_moving / heave0  # radiated within 40 time units
+    carried = moving.wave_energy() + moving.totals().wave_absorbed
+    assert heave0 - heave_moving == pytest.approx(carried, abs=1e-3 * heave0)
+
+
+def test_capsize_budget_closes_with_waves():
+    """A capsizing block (thickness 1.4 w) in waves: the released potential energy is the
+    kinetic energy, the waves' energy and the absorbed energy to within 0.1% of it."""
+    model = heaving(WAVES_ONLY, thickness=1.4, lift=0.0)
+    state = model.state()
+    state["theta"] = np.array([0.01])
+    model.set_state(state)
+    e0 = body_energy(model)
+    model.advance(12000)
+    theta = float(model.state()["theta"][0])
+    assert abs(theta) > 1.0, "the block must have capsized"
+    released = capsize_energy(R, 1.0, 1.4)
+    lost = e0 - body_energy(model)
+    waves = model.wave_energy() + model.totals().wave_absorbed
+    assert waves > 0.05 * released  # a capsize makes waves
+    assert abs(lost - waves) < 1e-3 * released, (lost - waves) / released
+
+
+def test_waves_are_bit_identical_across_kernel_forms():
+    """A colliding shelf with waves: the serial form, the parallel form with one and with
+    three groups, and with islands, give the same bits (state, surface, ledgers)."""
+    bergs = [{"x": 0.8 + 1.2 * q, "z": -R * 1.4 + 0.7, "theta": 0.05 * (-1) ** q, "vx": 0.3 * (-1) ** q} for q in range(12)]
+    physics = {"wave_end": 40.0, "wave_sponge": 10.0, "wave_dx": 0.125}
+    sc = make_scene(["gravity", "buoyancy", "drag", "collisions", "wall", "waves"], bergs, physics)
+    results = []
+    for mode, islands, groups in KERNEL_FORMS:
+        m = Model(sc, mode=mode, islands=islands, groups=groups)
+        m.advance(600)
+        t = m.totals()
+        results.append((m.state(), m.wave_state()["eta"], (t.collision_dissipated, t.correction_work, t.wave_absorbed)))
+    s0, eta0, t0 = results[0]
+    assert np.max(np.abs(eta0)) > 1e-4  # the surface moved
+    for s, eta, tot in results[1:]:
+        for k in s0:
+            assert s[k].tobytes() == s0[k].tobytes(), k
+        assert eta.tobytes() == eta0.tobytes()
+        assert tot == t0
+
+
+@pytest.mark.parametrize(
+    ("physics", "key"),
+    [
+        ({"wave_end": -1.0}, "physics.wave_end"),
+        ({"wave_end": 100.0, "wave_sponge": 100.0}, "physics.wave_sponge"),
+        ({"wave_dx": 0.0}, "physics.wave_dx"),
+        ({"water_depth": -2.0}, "physics.water_depth"),
+        ({"wave_end": 1e6, "wave_dx": 0.01}, "physics.wave_dx"),
+    ],
+)
+def test_wave_keys_are_checked(physics, key):
+    berg = {"x": 5.0, "z": -R * 1.4 + 0.7}
+    with pytest.raises(SceneError) as err:
+        make_scene(WAVES_ONLY, [berg], physics)
+    assert key in str(err.value) and "\n" not in str(err.value)
+
+
+def test_checkpoint_keeps_the_sea_and_resumes_bit_for_bit():
+    """What a checkpoint keeps (``Model.state`` and ``Model.accumulators``: the wave grid
+    with it) is enough to go on: 300 steps in one go equal 150, a fresh model loaded from
+    them, and 150 more, bit for bit, surface and ledger included."""
+    model = heaving(WAVES_ONLY, thickness=1.4, lift=0.02)
+    whole = heaving(WAVES_ONLY, thickness=1.4, lift=0.02)
+    whole.advance(300)
+    model.advance(150)
+    state, acc = model.state(), model.accumulators()
+    assert "waves" in acc
+    resumed = heaving(WAVES_ONLY, thickness=1.4, lift=0.02)
+    resumed.set_state(state)
+    resumed.set_accumulators(acc)
+    resumed.advance(150)
+    for k, v in whole.state().items():
+        assert resumed.state()[k].tobytes() == v.tobytes(), k
+    assert resumed.wave_state()["eta"].tobytes() == whole.wave_state()["eta"].tobytes()
+    assert resumed.totals().wave_absorbed == whole.totals().wave_absorbed
