@@ -234,10 +234,17 @@ class Model:
                 rows[:m, Wave.SPONGE] = np.where(x > start, waves_effect.SPONGE_RATE * ((x - start) / p.wave_sponge) ** 2, 0.0)
             k = np.pi * np.arange(m) / (m * self.wave_dx)
             rows[:m, Wave.KT] = k * np.tanh(k * p.water_depth) / m
+            # cosh(k (H - d)) / cosh(k H), written without overflow; mode 0 has half the
+            # weight of the others in the inverse cosine transform
+            d, h = p.wave_pressure_depth, p.water_depth
+            rows[:m, Wave.AT] = (np.exp(-k * d) + np.exp(-k * (2 * h - d))) / (1 + np.exp(-2 * k * h)) / m
+            rows[0, Wave.AT] *= 0.5
             rows[:m, Wave.CR] = np.cos(np.pi * np.arange(m) / (2 * m))
             rows[:m, Wave.CI] = np.sin(np.pi * np.arange(m) / (2 * m))
             rows[:m, Wave.TWR] = np.cos(2 * np.pi * np.arange(m) / (2 * m))
             rows[:m, Wave.TWI] = -np.sin(2 * np.pi * np.arange(m) / (2 * m))
+            bits = (2 * m).bit_length() - 1
+            rows[: 2 * m, Wave.REV] = [int(format(q, f"0{bits}b")[::-1], 2) for q in range(2 * m)]
         return rows.astype(self.np_real)
 
     # ------------------------------------------------------------------ the wave grid

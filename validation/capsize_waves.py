@@ -12,7 +12,9 @@ waves (+ form_drag, + added_mass), no linear drag, dt = 0.01, until t = 300. Rep
 the waves' share ``(E_w + absorbed) / released`` at the end, the iceberg's peak kinetic
 energy over the capsize energy ``0.5 r (1 - r) w h (h - w)``, and the budget's residual.
 Heave runs: a block of thickness 1 (stable) lifted by 0.05 w, with and without waves: the
-heave amplitude left after one and two periods. Writes ``capsize_waves.csv`` and ``capsize_waves.png``.
+heave amplitude left after one and two periods. Each with the wave pressure taken at depth 1
+(the default ``wave_pressure_depth``) and at the surface (0, the long-wave coupling).
+Writes ``capsize_waves.csv`` and ``capsize_waves.png``.
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ def model(effects, berg, physics, dt=0.01, duration=300.0):
     return Model(loads(dumps_toml(doc)), mode="serial")
 
 
-def capsize(cd: float, ca: float, waves: bool = True, duration: float = 300.0) -> dict:
+def capsize(cd: float, ca: float, waves: bool = True, depth: float = 1.0, duration: float = 300.0) -> dict:
     from melange_ti import diagnostics as dg
 
     h = 1.4
@@ -52,7 +54,7 @@ def capsize(cd: float, ca: float, waves: bool = True, duration: float = 300.0) -
     m = model(
         effects,
         {"x": 100.0, "z": -R * h + 0.5 * h, "theta": 0.01, "thickness": h},
-        {"form_drag": cd, "added_mass": ca, "added_inertia": ca},
+        {"form_drag": cd, "added_mass": ca, "added_inertia": ca, "wave_pressure_depth": depth},
     )
     k = m.constants()
     mass, inertia = k["mass"][0], k["inertia"][0]
@@ -77,6 +79,7 @@ def capsize(cd: float, ca: float, waves: bool = True, duration: float = 300.0) -
         "form_drag": cd,
         "added_mass": ca,
         "waves": int(waves),
+        "pressure_depth": depth,
         "wave_share": waves_share[-1],
         "ke_peak_fraction": max(ke),
         "residual_fraction": (e0 - e - led) / released,
@@ -87,10 +90,10 @@ def capsize(cd: float, ca: float, waves: bool = True, duration: float = 300.0) -
     }
 
 
-def heave(waves: bool, duration: float = 60.0) -> dict:
+def heave(waves: bool, depth: float = 1.0, duration: float = 60.0) -> dict:
     h = 1.0
     effects = ["gravity", "buoyancy"] + (["waves"] if waves else [])
-    m = model(effects, {"x": 100.0, "z": -R * h + 0.5 * h + 0.05, "thickness": h}, {})
+    m = model(effects, {"x": 100.0, "z": -R * h + 0.5 * h + 0.05, "thickness": h}, {"wave_pressure_depth": depth})
     z_eq = -R * h + 0.5 * h
     t, z = [], []
     for step in range(1, round(duration / 0.01) + 1):
@@ -102,7 +105,15 @@ def heave(waves: bool, duration: float = 60.0) -> dict:
     # draft), as a fraction of the initial lift
     period = 2 * math.pi * math.sqrt(R * h)
     left = [float(np.max(np.abs(z[(t > q * period) & (t <= (q + 1) * period)])) / 0.05) for q in (1, 2)]
-    return {"waves": int(waves), "period": period, "left_after_1": left[0], "left_after_2": left[1], "_t": t, "_z": z}
+    return {
+        "waves": int(waves),
+        "pressure_depth": depth,
+        "period": period,
+        "left_after_1": left[0],
+        "left_after_2": left[1],
+        "_t": t,
+        "_z": z,
+    }
 
 
 def main() -> None:
@@ -114,12 +125,29 @@ def main() -> None:
     runtime.init("cpu", threads=1, precision="f64")
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    runs = [capsize(0, 0), capsize(1, 0.5), capsize(8, 1), capsize(0, 0, waves=False)]
-    heaves = [heave(False), heave(True)]
+    runs = [
+        capsize(0, 0),
+        capsize(1, 0.5),
+        capsize(8, 1),
+        capsize(0, 0, depth=0.0),
+        capsize(1, 0.5, depth=0.0),
+        capsize(0, 0, waves=False),
+    ]
+    heaves = [heave(False), heave(True), heave(True, depth=0.0)]
     with open(out / "capsize_waves.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(
-            ["case", "form_drag", "added_mass", "waves", "wave_share", "ke_peak_fraction", "residual_fraction", "capsized"]
+            [
+                "case",
+                "form_drag",
+                "added_mass",
+                "waves",
+                "pressure_depth",
+                "wave_share",
+                "ke_peak_fraction",
+                "residual_fraction",
+                "capsized",
+            ]
         )
         for r in runs:
             w.writerow(
@@ -128,23 +156,33 @@ def main() -> None:
                     r["form_drag"],
                     r["added_mass"],
                     r["waves"],
+                    r["pressure_depth"],
                     f"{r['wave_share']:.4f}",
                     f"{r['ke_peak_fraction']:.4f}",
                     f"{r['residual_fraction']:.2e}",
                     r["capsized"],
                 ]
             )
-        w.writerow(["case", "waves", "period", "amplitude_left_after_1_period", "after_2_periods"])
+        w.writerow(["case", "waves", "pressure_depth", "period", "amplitude_left_after_1_period", "after_2_periods"])
         for r in heaves:
-            w.writerow(["heave", r["waves"], f"{r['period']:.3f}", f"{r['left_after_1']:.4f}", f"{r['left_after_2']:.4f}"])
+            w.writerow(
+                [
+                    "heave",
+                    r["waves"],
+                    r["pressure_depth"],
+                    f"{r['period']:.3f}",
+                    f"{r['left_after_1']:.4f}",
+                    f"{r['left_after_2']:.4f}",
+                ]
+            )
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
-    for r in runs[:3]:
-        lab = f"C_d = {r['form_drag']:g}, C_a = C_i = {r['added_mass']:g}"
+    for r in runs[:5]:
+        lab = f"C_d = {r['form_drag']:g}, C_a = C_i = {r['added_mass']:g}, pressure depth {r['pressure_depth']:g}"
         (line,) = ax[0].plot(r["_t"], r["_w"], label=f"waves' share: {lab}")
         ax[0].plot(r["_t"], r["_ke"], ls=":", color=line.get_color())
     ax[0].axhline(0.01, color="k", lw=0.8, ls="--", label="laboratory: ~1% to waves (Burton et al. 2012)")
@@ -153,7 +191,9 @@ def main() -> None:
     ax[0].set_title("one capsize, aspect 1.4: waves' energy (solid), iceberg's KE (dotted)", fontsize=9)
     ax[0].legend(fontsize=7)
     for r in heaves:
-        lab = ("with waves" if r["waves"] else "flat sea") + f": {r['left_after_2']:.0%} of the lift left after 2 periods"
+        lab = (f"waves, pressure depth {r['pressure_depth']:g}" if r["waves"] else "flat sea") + (
+            f": {r['left_after_2']:.0%} of the lift left after 2 periods"
+        )
         ax[1].plot(r["_t"], r["_z"], label=lab)
     ax[1].set_xlabel("time (sqrt(w/g))")
     ax[1].set_ylabel("heave z - z_eq (w)")

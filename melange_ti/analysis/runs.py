@@ -61,7 +61,7 @@ def load_run(path: str | Path) -> Run:
         raise OutputError(f"{path}: no snapshots yet (nothing to plot)")
     if len(data["diagnostics"]["time"]) == 0:
         raise OutputError(f"{path}: no diagnostics yet (nothing to plot)")
-    return Run(path=path, data=data, scene=scene, flat=stats.flatten_scene(scene.source))
+    return Run(path=path, data=data, scene=scene, flat=stats.parameters(scene))
 
 
 def make_groups(runs: Sequence[Run], keys: Sequence[str] | None = None) -> list[Group]:

@@ -252,11 +252,26 @@ def _hashable(v):
     return v
 
 
+def parameters(scene) -> dict[str, object]:
+    """A scene's keys as ``{"section.key": value}`` (:func:`flatten_scene`), without the
+    ``[physics]`` keys of effects it does not name: they change nothing in its run (a run
+    without waves has a ``physics.wave_dx`` too, which must not tell it from one with)."""
+    from ..physics.effects import REGISTRY
+
+    flat = flatten_scene(scene.source)
+    for e in REGISTRY:
+        if not getattr(scene.effects, e.name):
+            for k in e.keys:
+                flat.pop(f"physics.{k.name}", None)
+    return flat
+
+
 def differing_keys(scenes: Sequence[Mapping[str, object]], ignore: Iterable[str] = NON_PARAMETER_KEYS) -> list[str]:
-    """Keys of flattened scenes whose values are not the same in all of them (sorted)."""
+    """Keys of flattened scenes whose values are not the same in all of them that have the
+    key (sorted)."""
     ignore = set(ignore)
     keys = sorted({k for s in scenes for k in s} - ignore)
-    return [k for k in keys if len({repr(s.get(k)) for s in scenes}) > 1]
+    return [k for k in keys if len({repr(s[k]) for s in scenes if k in s}) > 1]
 
 
 def group_by_keys(scenes: Sequence[Mapping[str, object]], keys: Sequence[str]) -> dict[tuple, list[int]]:
@@ -277,12 +292,24 @@ def _sort_key(group: tuple) -> tuple:
     return tuple(out)
 
 
+def _effects_label(effects: tuple) -> str:
+    """``("gravity", ..., "waves")`` -> ``"the paper's effects + waves"``."""
+    from ..physics.effects import PAPER_EFFECTS
+
+    added = [e for e in effects if e not in PAPER_EFFECTS]
+    removed = [e for e in PAPER_EFFECTS if e not in effects]
+    return "the paper's effects" + "".join(f" + {e}" for e in added) + "".join(f" - {e}" for e in removed)
+
+
 def group_label(group: tuple) -> str:
     """``(("contacts.discs", 12),)`` -> ``"contacts.discs = 12"``; ``()`` -> ``"all runs"``."""
     if not group:
         return "all runs"
     parts = []
     for k, v in group:
+        if k == "scene.effects" and isinstance(v, tuple):
+            parts.append(_effects_label(v))
+            continue
         text = repr(v) if isinstance(v, tuple) else f"{v:g}" if isinstance(v, float) else str(v)
         if len(text) > 30:
             text = text[:27] + "..."

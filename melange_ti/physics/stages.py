@@ -213,7 +213,7 @@ WAVE_KICK = Stage("wave_kick", waves.kick_grid, (Part(waves.kick_grid),), needs=
 WAVES = Stage(
     "waves",
     waves.waves_serial,
-    (Part(waves.update), Part(waves.sponge, sequential=True)),
+    (Part(waves.update), Part(waves.sponge, sequential=True), Part(waves.pressure_surface)),
     needs=has_waves,
 )
 
@@ -317,9 +317,12 @@ def run_part(
 # ---------------------------------------------------------------- host-side helpers
 @ti.kernel
 def wave_refresh(cfg: arr, wv: arr):
-    """``GPHI = G PHI`` after the host set the wave grid (the step keeps it current)."""
+    """``GPHI = G PHI`` and ``ETA_P = A ETA`` after the host set the wave grid (the step
+    keeps them current)."""
     a = ti.static(Arrays(None, None, None, None, None, None, None, None, None, cfg, None, None, None, wv))
-    waves.apply_g(a)
+    ti.loop_config(serialize=True)
+    for _ in range(1):
+        waves.refresh(a)
 
 
 @ti.kernel

@@ -5,8 +5,9 @@ side. The grid's step (:func:`grid_step`) applies ``G`` through a cosine transfo
 complex FFT of length ``2M`` (the even extension of the ``M`` cells, ``M`` a power of 2):
 bit-reversed load, ``log2(2M)`` butterfly stages, each a loop over ``M`` butterflies that
 write disjoint elements, so every loop is parallel and its bits do not depend on the thread
-count. Twiddles and the operator's symbol are computed once on the host (numpy), so no
-kernel evaluates a trigonometric function.
+count; two real filters share one complex transform (:func:`apply_filters`). Twiddles, the
+bit reversal and the operators' symbols are computed once on the host (numpy), so no kernel
+evaluates a trigonometric function.
 """
 
 import taichi as ti
@@ -163,8 +164,9 @@ def weights(a: ti.template(), q):
 
 @ti.func
 def eta_at(a: ti.template(), q):
+    """The surface the icebergs' pressure is taken from (``ETA_P``), at strip q's centre."""
     j0, j1, f = weights(a, q)
-    return (1.0 - f) * a.wv[j0, Wave.ETA] + f * a.wv[j1, Wave.ETA]
+    return (1.0 - f) * a.wv[j0, Wave.ETA_P] + f * a.wv[j1, Wave.ETA_P]
 
 
 @ti.func
@@ -251,20 +253,21 @@ def _cells(a: ti.template()):
 
 
 @ti.func
-def _bitrev(n, bits):
-    r = 0
-    k = n
-    for _ in range(bits):
-        r = (r << 1) | (k & 1)
-        k >>= 1
-    return r
+def _fft(a: ti.template(), re: ti.template(), im: ti.template(), sign, parallel: ti.template()):
+    """The radix-2 FFT's butterfly passes on columns re, im (bit-reversed input)."""
+    if ti.static(parallel):
+        for st in ti.static(range(1, MAX_LOG + 1)):
+            _butterflies(a, st, re, im, sign)
+    else:
+        for st in range(1, ti.cast(a.cfg[Config.WAVE_LOG], ti.i32) + 1):
+            _butterflies(a, st, re, im, sign)
 
 
 @ti.func
-def _butterflies(a: ti.template(), st: ti.template(), re: ti.template(), im: ti.template(), sign):
-    """Stage ``st`` (1-based) of the radix-2 FFT in place on columns re, im (bit-reversed
+def _butterflies(a: ti.template(), st, re: ti.template(), im: ti.template(), sign):
+    """Pass ``st`` (1-based) of the radix-2 FFT in place on columns re, im (bit-reversed
     input); ``sign`` -1 for the inverse (conjugate twiddles). No loop when ``st`` exceeds
-    the transform's stages."""
+    the transform's passes."""
     wv = ti.static(a.wv)
     m = _cells(a)
     bits = ti.cast(a.cfg[Config.WAVE_LOG], ti.i32)
@@ -288,35 +291,72 @@ def _butterflies(a: ti.template(), st: ti.template(), re: ti.template(), im: ti.
 
 
 @ti.func
-def apply_g(a: ti.template()):
-    """``GPHI = G PHI``: cosine transform of PHI (FFT of its even extension), times the
-    symbol k_m tanh(k_m H) (with the transforms' scale, ``KT``), back (inverse FFT)."""
+def apply_filters(
+    a: ti.template(),
+    src1: ti.template(),
+    sym1: ti.template(),
+    dst1: ti.template(),
+    src2: ti.template(),
+    sym2: ti.template(),
+    dst2: ti.template(),
+    parallel: ti.template(),
+):
+    """``dst1 = F1 src1`` and ``dst2 = F2 src2`` for filters diagonal in the grid's cosine
+    modes (their values per mode, with the transforms' scale, in columns ``sym1``, ``sym2``),
+    in one FFT and one inverse FFT of length 2M: forward of ``ext(src1) + i ext(src2)``
+    (``ext`` the even extension, whose transform is the cosine transform), each input's
+    spectrum taken apart by conjugate symmetry, filtered, put back as the spectrum of a real
+    even output (Hermitian), the two packed as real and imaginary parts, back.
+    ``parallel``: every butterfly pass a loop of its own at the kernel's top level (unrolled
+    up to the longest transform); else a loop over the passes, for a serial caller (the same
+    arithmetic, far less code to compile)."""
     wv = ti.static(a.wv)
     m = _cells(a)
-    bits = ti.cast(a.cfg[Config.WAVE_LOG], ti.i32)
-    for n in range(2 * m):
-        src = n
-        if n >= m:
-            src = 2 * m - 1 - n
-        r = _bitrev(n, bits)
-        wv[r, Wave.RE] = wv[src, Wave.PHI]
-        wv[r, Wave.IM] = 0.0
-    for st in ti.static(range(1, MAX_LOG + 1)):
-        _butterflies(a, st, Wave.RE, Wave.IM, 1.0)
-    for k in range(2 * m):
-        br = 0.0
-        bi = 0.0
-        if k < m:
-            amp = wv[k, Wave.KT] * (wv[k, Wave.CR] * wv[k, Wave.RE] + wv[k, Wave.CI] * wv[k, Wave.IM])
-            br = amp * wv[k, Wave.CR]
-            bi = amp * wv[k, Wave.CI]
-        r = _bitrev(k, bits)
-        wv[r, Wave.QR] = br
-        wv[r, Wave.QI] = bi
-    for st in ti.static(range(1, MAX_LOG + 1)):
-        _butterflies(a, st, Wave.QR, Wave.QI, -1.0)
+    n = 2 * m
+    for q in range(n):
+        j = q
+        if q >= m:
+            j = n - 1 - q
+        r = ti.cast(wv[q, Wave.REV], ti.i32)
+        wv[r, Wave.RE] = wv[j, src1]
+        wv[r, Wave.IM] = wv[j, src2]
+    _fft(a, Wave.RE, Wave.IM, 1.0, parallel)
+    for k in range(n):
+        mode = k
+        if k > m:
+            mode = n - k
+        w_re = 0.0
+        w_im = 0.0
+        if mode < m:
+            other = (n - mode) % n
+            zr, zi, yr, yi = wv[mode, Wave.RE], wv[mode, Wave.IM], wv[other, Wave.RE], wv[other, Wave.IM]
+            cr, ci = wv[mode, Wave.CR], wv[mode, Wave.CI]
+            # the two inputs' transforms at this mode: P = (Z_m + conj Z_-m) / 2, Q = (Z_m - conj Z_-m) / 2i
+            amp1 = wv[mode, sym1] * (cr * (0.5 * (zr + yr)) + ci * (0.5 * (zi - yi)))
+            amp2 = wv[mode, sym2] * (cr * (0.5 * (zi + yi)) + ci * (-0.5 * (zr - yr)))
+            half = 0.5
+            if mode == 0:
+                half = 1.0
+            h1r, h1i = half * amp1 * cr, half * amp1 * ci
+            h2r, h2i = half * amp2 * cr, half * amp2 * ci
+            if k > m:  # the Hermitian half: conjugates
+                h1i, h2i = -h1i, -h2i
+            w_re = h1r - h2i
+            w_im = h1i + h2r
+        r = ti.cast(wv[k, Wave.REV], ti.i32)
+        wv[r, Wave.QR] = w_re
+        wv[r, Wave.QI] = w_im
+    _fft(a, Wave.QR, Wave.QI, -1.0, parallel)
     for j in range(m):
-        wv[j, Wave.GPHI] = wv[j, Wave.QR]
+        wv[j, dst1] = wv[j, Wave.QR]
+        wv[j, dst2] = wv[j, Wave.QI]
+
+
+@ti.func
+def refresh(a: ti.template()):
+    """What the step keeps from the grid's state: ``G PHI`` and the surface at the depth of
+    the icebergs' pressure, ``ETA_P = A ETA`` (for a serial caller)."""
+    apply_filters(a, Wave.PHI, Wave.KT, Wave.GPHI, Wave.ETA, Wave.AT, Wave.ETA_P, False)
 
 
 @ti.func
@@ -329,14 +369,32 @@ def kick_grid(fx: ti.template(), a: ti.template()):
 
 
 @ti.func
-def update(fx: ti.template(), a: ti.template()):
-    """``eta += dt G phi + q``, the displaced water cleared for the next step."""
-    apply_g(a)
+def _update(a: ti.template(), parallel: ti.template()):
+    """``eta += dt G phi + A q``: the displaced water enters as it was taken, through the
+    depth filter ``A``; cleared for the next step."""
+    apply_filters(a, Wave.PHI, Wave.KT, Wave.GPHI, Wave.SRC, Wave.AT, Wave.SRC_P, parallel)
     wv = ti.static(a.wv)
     dt = a.par[Param.DT]
     for j in range(_cells(a)):
-        wv[j, Wave.ETA] += dt * wv[j, Wave.GPHI] + wv[j, Wave.SRC]
+        wv[j, Wave.ETA] += dt * wv[j, Wave.GPHI] + wv[j, Wave.SRC_P]
         wv[j, Wave.SRC] = 0.0
+
+
+@ti.func
+def _pressure_surface(a: ti.template(), parallel: ti.template()):
+    """``ETA_P = A ETA`` for the next step's kick (the transform's second input is the
+    cleared ``SRC``, its output unused)."""
+    apply_filters(a, Wave.ETA, Wave.AT, Wave.ETA_P, Wave.SRC, Wave.AT, Wave.SRC_P, parallel)
+
+
+@ti.func
+def update(fx: ti.template(), a: ti.template()):
+    _update(a, True)
+
+
+@ti.func
+def pressure_surface(fx: ti.template(), a: ti.template()):
+    _pressure_surface(a, True)
 
 
 @ti.func
@@ -360,5 +418,6 @@ def sponge(fx: ti.template(), a: ti.template()):
 
 @ti.func
 def waves_serial(fx: ti.template(), a: ti.template()):
-    update(fx, a)
+    _update(a, False)
     sponge(fx, a)
+    _pressure_surface(a, False)

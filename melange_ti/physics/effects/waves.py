@@ -14,25 +14,25 @@ makes both ends reflecting). The grid has a power of two of cells, so its spacin
 surface relaxes to rest at the rate ``SPONGE_RATE ((x - x_s) / wave_sponge)^2``, absorbing
 what reaches it; the energy it removes is booked in ``wave_absorbed``.
 
-**Coupling.** Let ``h(x)`` be the thickness of an iceberg's submerged part in the column at
-``x`` (below the still water line). As an iceberg moves, the water it displaces enters the
-surface where it is, ``q = dh/dt``: a sinking iceberg raises the surface around it, which
-spreads as waves. In turn the iceberg feels the wave's pressure ``rho g eta`` on its wetted
-faces (linear, Froude-Krylov): on top of its buoyancy in the still sea,
-
-``f_x = -rho g int eta_x h dx``, ``f_z = rho g int_waterline eta dx``,
-``tau = rho g [int_waterline (x - x_G) eta dx + int eta_x M1(x) dx]``,
-
-``M1(x)`` the first moment of the submerged column about the centre's height: to first
-order in ``eta``, the buoyancy of the part submerged under the sloping local surface. The
-pair is Hamiltonian: with ``E_w = rho g / 2 int eta^2 dx + rho / 2 int phi G phi dx`` the
+**Coupling.** Let ``A_q`` be an iceberg's submerged area (below the still water line) in
+strip q of the grid. As the iceberg moves, the water it displaces enters the surface where it
+is: a sinking iceberg raises the surface around it, which spreads as waves. In turn it feels
+the wave's pressure: with ``U = rho g sum_q eta^P_q A_q`` its force and torque are
+``-grad U`` over its pose, the buoyancy of the part submerged under the local, sloping
+surface to first order. ``eta^P = A eta`` is the surface filtered to the depth
+``d = wave_pressure_depth`` where linear theory puts the wave's pressure: each cosine mode
+times ``cosh(k (H - d)) / cosh(k H)``; and the displaced water enters through the same
+filter (``A q``, the adjoint), as a source at that depth makes waves. ``d = 0`` is the
+long-wave coupling (pressure uniform with depth), which over-couples waves shorter than
+about twice the draft; ``d`` about the icebergs' draft weighs their keels' pressure. The pair
+is Hamiltonian: with ``E_w = rho g / 2 int eta^2 dx + rho / 2 int phi G phi dx`` the
 icebergs' energy (their potential energy taken in the still sea) plus ``E_w`` is conserved
 but for what the sponge removes; ``wave_energy`` (a diagnostic) is ``E_w``.
 
-**Discretely.** Both integrals are taken at sample points ``SUB`` per cell, ``eta`` read
-linearly between cell centres, and ``q`` spread to the cells with the same weights (its
-adjoint), so the energy the icebergs give the water is the energy the water gets, to the
-quadrature's order. The kick uses ``eta`` at the step's start and advances ``phi``; after
+**Discretely.** ``A_q`` is exact (the submerged polygon clipped to the strip, ``SUB`` strips
+per cell), ``eta^P`` is read linearly between cell centres at the strip's centre, and the
+change of ``A_q`` is spread to the cells with the same weights, so the energy the icebergs
+give the water is the work of their force. The kick uses ``eta`` at the step's start and advances ``phi``; after
 the icebergs have moved (drift and correction) ``eta`` takes ``dt G phi`` and the displaced
 water: symplectic Euler for the whole system. What each iceberg displaces is added to the
 cells with exact sums (rounded to a multiple of ``WAVE_Q`` first), so the result does not
@@ -56,6 +56,13 @@ EFFECT = Effect(
         Key.positive("wave_dx", 0.25, "w", "largest spacing of the wave grid (used with the waves effect)"),
         Key("wave_end", 600.0, "w", "x where the wave domain ends (used with the waves effect)", None, ""),
         Key.nonnegative("wave_sponge", 50.0, "w", "width of the absorbing layer before wave_end (used with the waves effect)"),
+        Key.nonnegative(
+            "wave_pressure_depth",
+            1.0,
+            "w",
+            "depth at which the icebergs feel the wave's pressure and displace the water, about their draft "
+            "(0: at the surface, the long-wave limit; used with the waves effect)",
+        ),
     ),
     params=(
         Column("WAVE_DEPTH", "constant", "w", "water depth H", source="physics.water_depth"),
@@ -92,6 +99,12 @@ def check(physics) -> tuple[str, float, str] | None:
     length = physics.wave_end - physics.wall_x
     if length <= 0:
         return "physics.wave_end", physics.wave_end, f"must be beyond the wall (physics.wall_x = {physics.wall_x:g})"
+    if physics.wave_pressure_depth >= physics.water_depth:
+        return (
+            "physics.wave_pressure_depth",
+            physics.wave_pressure_depth,
+            f"must be less than water_depth = {physics.water_depth:g}",
+        )
     if physics.wave_sponge >= length:
         return "physics.wave_sponge", physics.wave_sponge, f"must be less than wave_end - wall_x = {length:g}"
     cells, _ = grid(physics.wall_x, physics.wave_end, physics.wave_dx)
