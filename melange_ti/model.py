@@ -267,11 +267,12 @@ class Model:
         a.wv.from_numpy(rows)
         stages.wave_refresh(a.cfg, a.wv)
 
-    def wave_energy(self) -> float:
-        """``rho g / 2 sum eta^2 dx + rho / 2 sum phi G phi dx`` (waves effect; else 0)."""
+    def wave_energy(self, state: dict[str, np.ndarray] | None = None) -> float:
+        """``rho g / 2 sum eta^2 dx + rho / 2 sum phi G phi dx`` (waves effect; else 0), summed
+        in f64; of ``state`` (:meth:`wave_state`) if given, else fetched."""
         if not self.wave_cells:
             return 0.0
-        w = self.wave_state()
+        w = {k: v.astype(np.float64) for k, v in (state or self.wave_state()).items()}
         return float(0.5 * self.wave_dx * (np.dot(w["eta"], w["eta"]) + np.dot(w["phi"], w["g_phi"])))
 
     # ------------------------------------------------------------------ host side
@@ -308,8 +309,9 @@ class Model:
         stages.sample_all(self.fx, a.b, a.par, a.acc, a.cnt, self._out, self._out_acc, self._out_cnt)
         sample, totals = self._unpack(self._out, self._out_acc, self._out_cnt, 0)
         if self.wave_cells:
-            sample["eta"] = self.wave_state()["eta"]
-            sample["wave_energy"] = np.array(self.wave_energy())
+            w = self.wave_state()
+            sample["eta"] = w["eta"]
+            sample["wave_energy"] = np.array(self.wave_energy(w))
         return sample, totals
 
     def advance_sampled(self, segments: list[int]) -> list[tuple[dict[str, np.ndarray], Totals]]:

@@ -230,8 +230,8 @@ def test_waves_on_vulkan_match_the_cpu(tmp_path):
     text = (
         '[scene]\neffects = ["gravity", "buoyancy", "drag", "waves"]\n'
         "[physics]\nwave_end = 40.0\nwave_sponge = 10.0\nwave_dx = 0.125\n"
-        "[shelf]\ncount = 6\ngap = 2.0\ntilt = 0.3\n[time]\ndt = 0.02\nduration = 4.0\n"
-        "[output]\nsnapshot_interval = 1.0\ndiagnostic_interval = 0.2\n"
+        "[shelf]\ncount = 6\ngap = 2.0\ntilt = 0.3\n[time]\ndt = 0.02\nduration = 2.0\n"
+        "[output]\nsnapshot_interval = 0.5\ndiagnostic_interval = 0.2\n"
     )
     _run_on_cpu_and_vulkan(tmp_path, text)
     worst = _compare(tmp_path / "cpu.h5", tmp_path / "vulkan.h5", TOLERANCE["f64"])

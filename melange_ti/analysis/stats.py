@@ -259,10 +259,12 @@ def parameters(scene) -> dict[str, object]:
     from ..physics.effects import REGISTRY
 
     flat = flatten_scene(scene.source)
+    used = {c.source for e in REGISTRY if getattr(scene.effects, e.name) for c in e.params if c.source}
     for e in REGISTRY:
         if not getattr(scene.effects, e.name):
             for k in e.keys:
-                flat.pop(f"physics.{k.name}", None)
+                if f"physics.{k.name}" not in used:  # e.g. wall_x: the wave grid starts there
+                    flat.pop(f"physics.{k.name}", None)
     return flat
 
 

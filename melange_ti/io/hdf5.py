@@ -119,9 +119,10 @@ class RunWriter:
         # The most one write can allocate (a new chunk of every dataset, plus metadata):
         # refuse to start a write without twice that free, so a filling disk stops the run
         # between writes and the file stays whole.
-        x = self._snap["x"]
-        snap_chunk = x.chunks[0] * x.chunks[1] * x.dtype.itemsize if x.chunks else 0
-        self._room = 2 * (len(self._state) * snap_chunk + (len(DIAGNOSTICS) + 2) * 8192) + (64 << 10)
+        snap_chunks = sum(
+            int(np.prod(ds.chunks)) * ds.dtype.itemsize for k, ds in self._snap.items() if k != "time" and ds.chunks
+        )
+        self._room = 2 * (snap_chunks + (len(DIAGNOSTICS) + 2) * 8192) + (64 << 10)
 
     def _create(self, attrs: dict, constants: dict[str, np.ndarray], wave_x: np.ndarray | None = None) -> None:
         f = self.f

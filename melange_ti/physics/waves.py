@@ -91,27 +91,32 @@ def submerged(xc, zc, c, s, hw, hh, wl):
 
 @ti.func
 def area_left_of(px, pz, n, xe):
-    """Area of the convex polygon (px, pz, n corners) left of the line x = xe."""
+    """Area of the convex polygon (px, pz, n corners) left of the line x = xe. Taken about
+    its first corner: the shoelace terms then stay the size of the iceberg, not of its
+    distance from the origin (in f32, at x ~ 500, the difference of two areas a step apart
+    would be rounding alone)."""
     area = 0.0
     if n >= 3:
         # clip each edge to x <= xe and sum the shoelace terms of the clipped polygon: the
         # clipped boundary is the kept pieces plus pieces of the line x = xe
+        ox, oz = px[0], pz[0]
         qx = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
         qz = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
         m = 0
         for k in range(n):
-            ax, az = px[k], pz[k]
+            ax, az = px[k] - ox, pz[k] - oz
             k2 = k + 1
             if k2 == n:
                 k2 = 0
-            bx, bz = px[k2], pz[k2]
-            if ax <= xe:
+            bx, bz = px[k2] - ox, pz[k2] - oz
+            cut = xe - ox
+            if ax <= cut:
                 qx[m] = ax
                 qz[m] = az
                 m += 1
-            if (ax <= xe) != (bx <= xe):
-                f = (xe - ax) / (bx - ax)
-                qx[m] = xe
+            if (ax <= cut) != (bx <= cut):
+                f = (cut - ax) / (bx - ax)
+                qx[m] = cut
                 qz[m] = az + f * (bz - az)
                 m += 1
         for k in range(m):

@@ -294,7 +294,7 @@ def from_dict(
         start=start,
     )
     if scene.effects.waves:
-        bad = waves_effect.check(scene.physics)
+        bad = waves_effect.check(scene.physics, time.dt)
         if bad is not None:
             raise error(*bad)
     if geometry:

@@ -121,7 +121,7 @@ def test_packet_travels_at_the_group_velocity():
         centres.append(float(np.sum(x[right] * e2) / np.sum(e2)))
     speed = (centres[1] - centres[0]) / 30.0
     assert speed == pytest.approx(cg, rel=0.02), (speed, cg)
-    # not the phase velocity, which is 1.28 times faster here
+    # not the phase velocity, which is 1.29 times faster here
     assert abs(speed - omega(k, depth) / k) > 0.2 * cg
 
 
@@ -252,3 +252,14 @@ def test_checkpoint_keeps_the_sea_and_resumes_bit_for_bit():
         assert resumed.state()[k].tobytes() == v.tobytes(), k
     assert resumed.wave_state()["eta"].tobytes() == whole.wave_state()["eta"].tobytes()
     assert resumed.totals().wave_absorbed == whole.totals().wave_absorbed
+
+
+def test_a_grid_too_fine_for_the_time_step_is_refused():
+    """The shortest wave of the grid must be one the time step can follow (omega_max dt <= 1):
+    wave_dx = 0.125 (k = 25, omega = 5) is refused at dt = 0.5 and accepted at dt = 0.1."""
+    berg = {"x": 5.0, "z": -R * 1.4 + 0.7}
+    physics = {"wave_dx": 0.125, "wave_end": 64.0, "wave_sponge": 8.0}
+    with pytest.raises(SceneError) as err:
+        make_scene(WAVES_ONLY, [berg], physics, dt=0.5)
+    assert "physics.wave_dx" in str(err.value) and "time.dt" in str(err.value) and "\n" not in str(err.value)
+    make_scene(WAVES_ONLY, [berg], physics, dt=0.1)

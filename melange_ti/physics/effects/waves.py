@@ -10,7 +10,7 @@ with ``G`` the Dirichlet-to-Neumann operator of finite depth, ``k tanh(k H)`` on
 wavenumber ``k``: every wave the grid resolves has the exact dispersion
 ``omega^2 = g k tanh(k H)`` (``G`` is applied through a cosine transform, which is also what
 makes both ends reflecting). The grid has a power of two of cells, so its spacing is
-``wave_dx`` or a little less. In the last ``wave_sponge`` widths before ``wave_end`` the
+between ``wave_dx / 2`` and ``wave_dx``. In the last ``wave_sponge`` widths before ``wave_end`` the
 surface relaxes to rest at the rate ``SPONGE_RATE ((x - x_s) / wave_sponge)^2``, absorbing
 what reaches it; the energy it removes is booked in ``wave_absorbed``.
 
@@ -32,12 +32,17 @@ but for what the sponge removes; ``wave_energy`` (a diagnostic) is ``E_w``.
 **Discretely.** ``A_q`` is exact (the submerged polygon clipped to the strip, ``SUB`` strips
 per cell), ``eta^P`` is read linearly between cell centres at the strip's centre, and the
 change of ``A_q`` is spread to the cells with the same weights, so the energy the icebergs
-give the water is the work of their force. The kick uses ``eta`` at the step's start and advances ``phi``; after
-the icebergs have moved (drift and correction) ``eta`` takes ``dt G phi`` and the displaced
-water: symplectic Euler for the whole system. What each iceberg displaces is added to the
-cells with exact sums (rounded to a multiple of ``WAVE_Q`` first), so the result does not
-depend on the order of the additions: the same bits in both forms and on any thread count.
+give the water is the work of their force. The kick uses ``eta`` at the step's start and
+advances ``phi``; each iceberg adds what it displaced over its drift (the overlap
+correction's pushes move no water: the water's volume changes by what they displace, and
+their energy is booked in ``correction_work`` with the still-water potential energy); then
+``eta`` takes ``dt G phi`` and the displaced water: symplectic Euler for the whole system.
+What each iceberg displaces is added to the cells with exact sums (rounded to a multiple of
+``WAVE_Q`` first), so the result does not depend on the order of the additions: the same
+bits in both forms and on any thread count.
 """
+
+import math
 
 from ..columns import Column
 from .base import Effect, Key
@@ -67,7 +72,7 @@ EFFECT = Effect(
     params=(
         Column("WAVE_DEPTH", "constant", "w", "water depth H", source="physics.water_depth"),
         Column("WAVE_START", "constant", "w", "x where the wave grid starts (the wall)", source="physics.wall_x"),
-        Column("WAVE_DX", "constant", "w", "wave grid spacing (wave_dx or a little less: a power of two of cells)"),
+        Column("WAVE_DX", "constant", "w", "wave grid spacing (between wave_dx / 2 and wave_dx: a power of two of cells)"),
         Column("WAVE_Q", "constant", "w", "what each iceberg adds to a cell is rounded to a multiple of this"),
     ),
     body_columns=(
@@ -93,9 +98,11 @@ def grid(wall_x: float, wave_end: float, wave_dx: float) -> tuple[int, float]:
     return max(cells, 2), length / max(cells, 2)
 
 
-def check(physics) -> tuple[str, float, str] | None:
+def check(physics, dt: float) -> tuple[str, float, str] | None:
     """``(key, value, what would be accepted)`` if the waves keys of ``physics`` cannot make
-    a grid, else ``None``."""
+    a grid, or make one whose shortest wave the time step ``dt`` cannot follow (symplectic
+    Euler needs ``omega_max dt < 2``, ``omega_max^2 = g k tanh(k H)`` at ``k = pi / dx``;
+    kept below 1 for accuracy), else ``None``."""
     length = physics.wave_end - physics.wall_x
     if length <= 0:
         return "physics.wave_end", physics.wave_end, f"must be beyond the wall (physics.wall_x = {physics.wall_x:g})"
@@ -107,8 +114,17 @@ def check(physics) -> tuple[str, float, str] | None:
         )
     if physics.wave_sponge >= length:
         return "physics.wave_sponge", physics.wave_sponge, f"must be less than wave_end - wall_x = {length:g}"
-    cells, _ = grid(physics.wall_x, physics.wave_end, physics.wave_dx)
+    cells, dx = grid(physics.wall_x, physics.wave_end, physics.wave_dx)
     if cells > MAX_CELLS:
         most = length / MAX_CELLS
         return "physics.wave_dx", physics.wave_dx, f"makes more than {MAX_CELLS} wave cells; use at least {most:.4g}"
+    k = math.pi / dx
+    omega = math.sqrt(k * math.tanh(k * physics.water_depth))
+    if omega * dt > 1.0:
+        return (
+            "physics.wave_dx",
+            physics.wave_dx,
+            f"makes waves too short for time.dt = {dt:g} (grid spacing {dx:.4g}: their period "
+            f"{2 * math.pi / omega:.3g} needs dt <= {1.0 / omega:.3g}); use a larger wave_dx or a smaller dt",
+        )
     return None
