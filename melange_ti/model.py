@@ -200,7 +200,7 @@ class Model:
         if self.fx.waves:
             par[Param.WAVE_DX] = self.wave_dx
             # shares of displaced water are multiples of this: their sums stay exact below 8
-            # (f64; 2 in f32), so the order of the additions does not matter (physics/waves.py)
+            # (f64; 4 in f32), so the order of the additions does not matter (physics/waves.py)
             par[Param.WAVE_Q] = 2.0**-50 if self.np_real is np.float64 else 2.0**-22
         a.par.from_numpy(par.astype(self.np_real))
         a.scr.from_numpy(np.zeros(a.scr.shape, dtype=self.np_real))
@@ -244,7 +244,8 @@ class Model:
             rows[:m, Wave.TWR] = np.cos(2 * np.pi * np.arange(m) / (2 * m))
             rows[:m, Wave.TWI] = -np.sin(2 * np.pi * np.arange(m) / (2 * m))
             bits = (2 * m).bit_length() - 1
-            rows[: 2 * m, Wave.REV] = [int(format(q, f"0{bits}b")[::-1], 2) for q in range(2 * m)]
+            q = np.arange(2 * m)
+            rows[: 2 * m, Wave.REV] = sum(((q >> b) & 1) << (bits - 1 - b) for b in range(bits))
         return rows.astype(self.np_real)
 
     # ------------------------------------------------------------------ the wave grid
