@@ -26,6 +26,8 @@ in the time domain (Cummins' equation, the retardation function from ``b(omega)`
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 
@@ -46,9 +48,55 @@ def wavenumbers(K: float, depth: float, n: int) -> tuple[float, np.ndarray]:
     return 0.5 * (lo + hi), 0.5 * (a + b)
 
 
-def heave_coefficients(omega: float, depth: float, draft: float, beam: float = 1.0, modes: int = 100):
-    """Added mass, radiation damping (from the pressure) and radiation damping (from the
-    radiated waves' energy flux) of a rectangle heaving at ``omega``, per unit length."""
+@dataclass(frozen=True)
+class HeaveSolution:
+    """The matched potential of a unit heave (:func:`heave_solution`): outside, amplitudes
+    ``A`` of the modes ``psi_n(z) exp(i k_n (|x| - a))``; under the body, ``B`` of
+    ``cosh(lam_m x) / cosh(lam_m a) cos(lam_m (z + h))`` on the particular solution."""
+
+    omega: float
+    depth: float
+    draft: float
+    half_beam: float
+    k: np.ndarray  # k_0 (real), then i kappa_n
+    lam: np.ndarray  # m pi / (h - d)
+    A: np.ndarray
+    B: np.ndarray
+    velocity: complex  # the heave velocity, -i omega
+
+    def outside(self, x: float, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The potential and its x-derivative at ``x >= a`` (depths ``z`` in (-h, 0))."""
+        h, k = self.depth, self.k
+        zz = np.asarray(z, float)[:, None]
+        psi = np.empty((zz.shape[0], k.size), complex)
+        k0 = k[0].real  # cosh(k0 (z + h)) / cosh(k0 h), finite at large k0 h
+        psi[:, 0] = (np.exp(k0 * zz) * (1 + np.exp(-2 * k0 * (zz + h))) / (1 + np.exp(-2 * k0 * h)))[:, 0]
+        kap = k[1:].imag
+        psi[:, 1:] = np.cos(kap[None, :] * (zz + h)) / np.cos(kap[None, :] * h)
+        phase = np.exp(1j * k * (x - self.half_beam))
+        return psi @ (self.A * phase), psi @ (1j * k * self.A * phase)
+
+    def under(self, x: float, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The potential and its x-derivative at ``|x| <= a`` under the body (``z`` in
+        (-h, -d))."""
+        h, a, lam = self.depth, self.half_beam, self.lam
+        e = h - self.draft
+        zz = np.asarray(z, float)[:, None]
+        ax = abs(x)
+        # cosh(lam x) / cosh(lam a) and its x-derivative over lam, finite at large lam a
+        ratio = np.exp(lam * (ax - a)) * (1 + np.exp(-2 * lam * ax)) / (1 + np.exp(-2 * lam * a))
+        slope = np.sign(x) * np.exp(lam * (ax - a)) * (1 - np.exp(-2 * lam * ax)) / (1 + np.exp(-2 * lam * a))
+        modes = np.cos(lam[None, :] * (zz + h))
+        V = self.velocity
+        phi = V * ((zz[:, 0] + h) ** 2 - x * x) / (2 * e) + modes @ (self.B * ratio)
+        phi_x = -V * x / e + modes @ (self.B * lam * slope)
+        return phi, phi_x
+
+
+def heave_solution(omega: float, depth: float, draft: float, beam: float = 1.0, modes: int = 100) -> HeaveSolution:
+    """The radiation potential of a rectangle heaving with unit amplitude at ``omega``, by
+    eigenfunction matching with ``modes`` evanescent modes outside and ``modes`` cosine
+    modes under the body (:class:`HeaveSolution`)."""
     h, d, a, N = float(depth), float(draft), 0.5 * float(beam), int(modes)
     if not 0 < d < h:
         raise ValueError(f"draft {d} must lie between 0 and the depth {h}")
@@ -87,14 +135,27 @@ def heave_coefficients(omega: float, depth: float, draft: float, beam: float = 1
     M[N + 1 :, N + 1 :] = -D * slope[None, :]
     rhs[N + 1 :] = -V * a / e * D[:, 0]
     sol = np.linalg.solve(M, rhs)
-    A, B = sol[: N + 1], sol[N + 1 :]
-    # the pressure i omega rho phi integrated over the bottom
-    bottom = V / (2 * e) * (2 * a * e * e - 2 * a**3 / 3) + 2 * a * B[0]
-    bottom += np.sum(B[1:] * sign[1:] * 2 * np.tanh(lam[1:] * a) / lam[1:])
-    force = 1j * omega * bottom
+    return HeaveSolution(omega, h, d, a, k, lam, sol[: N + 1], sol[N + 1 :], V)
+
+
+def bottom_integral(sol: HeaveSolution) -> complex:
+    """``int_{-a}^{a} phi(x, -d) dx``, the potential under the body's bottom, in closed form."""
+    a, lam, B, V = sol.half_beam, sol.lam, sol.B, sol.velocity
+    e = sol.depth - sol.draft
+    sign = (-1.0) ** np.arange(lam.size)
+    out = V / (2 * e) * (2 * a * e * e - 2 * a**3 / 3) + 2 * a * B[0]
+    return out + np.sum(B[1:] * sign[1:] * 2 * np.tanh(lam[1:] * a) / lam[1:])
+
+
+def heave_coefficients(omega: float, depth: float, draft: float, beam: float = 1.0, modes: int = 100):
+    """Added mass, radiation damping (from the pressure) and radiation damping (from the
+    radiated waves' energy flux) of a rectangle heaving at ``omega``, per unit length."""
+    sol = heave_solution(omega, depth, draft, beam, modes)
+    force = 1j * omega * bottom_integral(sol)  # the pressure i omega rho phi over the bottom
+    k0, h = sol.k[0].real, sol.depth
     cg = omega / (2 * k0) * (1 + (2 * k0 * h / np.sinh(2 * k0 * h) if k0 * h < 350 else 0.0))
     # each side carries 0.5 rho g |eta|^2 cg, eta = i omega phi / g at the surface
-    damping_far = 2 * cg * abs(A[0]) ** 2
+    damping_far = 2 * cg * abs(sol.A[0]) ** 2
     return float(force.real / omega**2), float(force.imag / omega), float(damping_far)
 
 
@@ -131,7 +192,8 @@ def free_decay(
     z, v = np.zeros(t.size), np.zeros(t.size)
     z[0] = lift
     for i in range(t.size - 1):
-        memory = dt * (np.dot(kernel[i:0:-1], v[1 : i + 1]) - 0.5 * kernel[0] * v[i] + 0.5 * kernel[i] * v[0]) if i else 0.0
+        # int_0^t_i K(t_i - s) v(s) ds by the trapezoidal rule over s_j = j dt
+        memory = dt * (np.dot(kernel[i::-1], v[: i + 1]) - 0.5 * kernel[0] * v[i] - 0.5 * kernel[i] * v[0]) if i else 0.0
         v[i + 1] = v[i] + dt * (-stiffness * z[i] - memory) / (mass + a_inf)
         z[i + 1] = z[i] + dt * v[i + 1]
     return {

@@ -66,3 +66,31 @@ def test_decay_of_a_damped_cosine():
     period, ratio = radiation.decay(t, z)
     assert period == pytest.approx(2 * math.pi / 1.1, rel=1e-3)
     assert ratio == pytest.approx(math.exp(-0.05 * 2 * math.pi / 1.1), rel=1e-3)
+
+
+@pytest.mark.parametrize("omega", [0.5, 0.86, 1.5])
+def test_matched_potential_is_continuous_at_the_body_side(omega):
+    """Rebuilt from the solution's modes at x = a: the potential and the horizontal velocity
+    outside equal those under the body over the gap (-h, -d), and the velocity outside
+    vanishes on the body's wall (-d, 0), up to the truncation the corner's singularity
+    leaves at 100 modes (medians over the depth, relative to the largest value under the
+    body)."""
+    h, d, a = 6.0, 0.8946, 0.5
+    sol = radiation.heave_solution(omega, h, d)
+    gap = np.linspace(-h, -d, 402)[1:-1]
+    phi_out, u_out = sol.outside(a, gap)
+    phi_in, u_in = sol.under(a, gap)
+    assert np.median(np.abs(phi_out - phi_in)) < 2e-3 * np.max(np.abs(phi_in))
+    assert np.median(np.abs(u_out - u_in)) < 2e-2 * np.max(np.abs(u_in))
+    _, u_wall = sol.outside(a, np.linspace(-d, 0.0, 202)[1:-1])
+    assert np.median(np.abs(u_wall)) < 4e-2 * np.max(np.abs(u_in))
+
+
+def test_bottom_force_closed_form_against_quadrature():
+    """The closed form of the potential integrated over the body's bottom, which gives the
+    force, against the trapezoidal rule over the rebuilt potential."""
+    sol = radiation.heave_solution(0.86, 6.0, 0.8946)
+    x = np.linspace(-0.5, 0.5, 4001)
+    phi = np.array([sol.under(xx, np.array([-0.8946]))[0][0] for xx in x])
+    closed = radiation.bottom_integral(sol)
+    assert abs(np.trapezoid(phi, x) - closed) < 1e-6 * abs(closed)

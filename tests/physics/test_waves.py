@@ -182,15 +182,16 @@ def test_heaving_iceberg_radiates_and_what_it_loses_the_waves_carry():
         carried = moving.wave_energy() + moving.totals().wave_absorbed
         assert heave0 - left[depth] == pytest.approx(carried, abs=1e-3 * heave0)
     assert left[1.0] > 2 * left[0.0], left
-    # against linear theory (tests/physics/test_radiation.py): the default coupling damps the
-    # heave at about half the theory's rate (docs/validation.md), not the several times of
-    # the long-wave coupling; without added mass it rings faster than the theory's period
+    # against linear theory (tests/physics/test_radiation.py): the default coupling's heave
+    # loses 0.54 of the theory's log decrement per period (docs/validation.md: 0.55 in the
+    # validation run's larger basin), not the several times of the long-wave coupling; without
+    # added mass its period is 27% short of the theory's
     theory = radiation.free_decay(mass=R, stiffness=1.0, lift=0.05, depth=6.0, draft=R, duration=40.0, n_omega=400, modes=40)
     t_period, t_ratio = radiation.decay(theory["t"], theory["z"])
     period, ratio = radiation.decay(np.array(t), np.array(z))  # the last run's: depth 1
     zeta, t_zeta = -math.log(ratio), -math.log(t_ratio)
-    assert 0.4 * t_zeta < zeta < t_zeta, (zeta, t_zeta)
-    assert 0.65 * t_period < period < 0.8 * t_period, (period, t_period)
+    assert 0.45 * t_zeta < zeta < 0.65 * t_zeta, (zeta, t_zeta)
+    assert 0.70 * t_period < period < 0.77 * t_period, (period, t_period)
 
 
 def test_capsize_budget_closes_with_waves():
