@@ -235,25 +235,24 @@ class RunWriter:
             self._check_room()
         try:
             if snap is not None:
-                k = self._nsnap
                 for name in self._state:
                     ds = self._snap[name]
-                    ds.resize(k + 1, axis=0)
-                    ds[k] = snap[1][name]
+                    ds.resize(self._nsnap + 1, axis=0)
+                    ds[self._nsnap] = snap[1][name]
+            k = self._ndiag
             if m:
-                k = self._ndiag
                 for name in DIAGNOSTICS:
                     ds = self._diag[name]
                     ds.resize(k + m, axis=0)
                     ds[k:] = np.array([r[name] for r in self._pending], dtype=ds.dtype)
-                self.f.flush()
+            if snap is not None or m:
+                self.f.flush()  # the rows on disk before any time grows
+            if m:
                 ds = self._diag["time"]
                 ds.resize(k + m, axis=0)
                 ds[k:] = np.array([r["time"] for r in self._pending], dtype=ds.dtype)
                 self._ndiag = k + m
                 self._pending.clear()
-            elif snap is not None:
-                self.f.flush()
             if snap is not None:
                 ds = self._snap["time"]
                 ds.resize(self._nsnap + 1, axis=0)

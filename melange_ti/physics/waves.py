@@ -14,8 +14,15 @@ import taichi as ti
 
 from .columns import Acc, Body, Config, Param, Wave
 from .effects.waves import MAX_CELLS, SUB
+from .numerics import FAR
 
 MAX_LOG = MAX_CELLS.bit_length()  # butterfly stages of the longest transform, 2 * MAX_CELLS
+
+
+@ti.func
+def _cells(a: ti.template()):
+    """The grid's cells, M."""
+    return ti.cast(a.cfg[Config.WAVE_CELLS], ti.i32)
 
 
 @ti.func
@@ -40,7 +47,7 @@ def column(x, xc, zc, c, s, hw, hh, wl):
     height, ``M1 = int (z - zc) dz``."""
     d = x - xc
     # u = d c + (z - zc) s, v = -d s + (z - zc) c
-    lo, hi = _slab(-1e300, 1e300, zc, d * c, hw, s)
+    lo, hi = _slab(-FAR, FAR, zc, d * c, hw, s)
     lo, hi = _slab(lo, hi, zc, -d * s, hh, c)
     h = 0.0
     m1 = 0.0
@@ -57,7 +64,7 @@ def waterline(xc, zc, c, s, hw, hh, wl):
     it does not)."""
     e = wl - zc
     # u = (x - xc) c + e s, v = -(x - xc) s + e c
-    lo, hi = _slab(-1e300, 1e300, xc, e * s, hw, c)
+    lo, hi = _slab(-FAR, FAR, xc, e * s, hw, c)
     return _slab(lo, hi, xc, e * c, hh, -s)
 
 
@@ -138,7 +145,7 @@ def extent(c, s, hw, hh):
 def strips(a: ti.template(), xa, xb):
     """The strips of the grid (index range, inclusive) that meet [xa, xb]; strip q runs
     from ``x0 + q ds`` to ``x0 + (q + 1) ds``, ``ds = dx / SUB``."""
-    m = ti.cast(a.cfg[Config.WAVE_CELLS], ti.i32)
+    m = _cells(a)
     ds = a.par[Param.WAVE_DX] / SUB
     x0 = a.par[Param.WAVE_START]
     lo = ti.max(0, ti.cast(ti.floor((xa - x0) / ds), ti.i32))
@@ -156,7 +163,7 @@ def edge_x(a: ti.template(), q):
 def weights(a: ti.template(), q):
     """Strip q's centre lies between cell centres j0 and j1 = j0 + 1, at fraction f from j0;
     at the grid's ends (before the first centre, after the last) j1 = j0 and f = 0."""
-    m = ti.cast(a.cfg[Config.WAVE_CELLS], ti.i32)
+    m = _cells(a)
     u = (q + 0.5) / SUB - 0.5  # in cell-centre units
     j0 = ti.cast(ti.floor(u), ti.i32)
     f = u - j0
@@ -252,11 +259,6 @@ def deposit(a: ti.template(), i):
 
 
 # ---------------------------------------------------------------- the grid's step
-@ti.func
-def _cells(a: ti.template()):
-    return ti.cast(a.cfg[Config.WAVE_CELLS], ti.i32)
-
-
 @ti.func
 def _fft(a: ti.template(), re: ti.template(), im: ti.template(), sign, parallel: ti.template()):
     """The radix-2 FFT's butterfly passes on columns re, im (bit-reversed input)."""
