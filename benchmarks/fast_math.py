@@ -14,8 +14,8 @@ parallel form and its state saved to ``--state`` (reused if present). Then child
 (``Model.profile(parts=True)``), and step ``--compare`` more steps unprofiled: the children
 print their per-kernel times and their final state's largest difference (any variable of
 ``Model.state()``) from the state the first ``off`` child reached (0 for every ``off`` child: the runs are bit-identical).
-Writes ``fast_math.csv`` (median ms/step per kernel and mode, and the ratio) and
-``fast_math.png``.
+Writes ``fast_math.csv`` (median ms/step per kernel and mode, and the ratio),
+``fast_math_runs.csv`` (every run's ms/step per kernel) and ``fast_math.png``.
 """
 
 from __future__ import annotations
@@ -62,7 +62,8 @@ def child(a) -> None:
     elif a.child == "off":
         np.savez(ref, **state)
         diff = 0.0
-    print("RESULT " + json.dumps({"mode": a.child, "profile": prof, "diff": diff}), flush=True)
+    threads = ti.lang.impl.current_cfg().cpu_max_num_threads
+    print("RESULT " + json.dumps({"mode": a.child, "profile": prof, "diff": diff, "threads": threads}), flush=True)
 
 
 def main() -> None:
@@ -82,23 +83,54 @@ def main() -> None:
         return
     if not Path(a.state).exists():
         subprocess.run(
-            [sys.executable, "benchmarks/profile_stages.py", "--n", str(a.n), "--warm", str(a.warm), "--steps", "0",
-             "--islands", "off", "--state", a.state],
+            [
+                sys.executable,
+                str(Path(__file__).with_name("profile_stages.py")),
+                "--n",
+                str(a.n),
+                "--warm",
+                str(a.warm),
+                "--steps",
+                "0",
+                "--islands",
+                "off",
+                "--state",
+                a.state,
+            ],
             check=True,
         )
     Path(a.state).with_suffix(".reference.npz").unlink(missing_ok=True)
     runs = []
     for r in range(a.repeats):
         for mode in ("off", "on"):
-            cmd = [sys.executable, __file__, "--child", mode, "--n", str(a.n), "--state", a.state, "--settle", str(a.settle),
-                   "--steps", str(a.steps), "--compare", str(a.compare)]
+            cmd = [
+                sys.executable,
+                __file__,
+                "--child",
+                mode,
+                "--n",
+                str(a.n),
+                "--state",
+                a.state,
+                "--settle",
+                str(a.settle),
+                "--steps",
+                str(a.steps),
+                "--compare",
+                str(a.compare),
+            ]
             out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
             res = json.loads(next(line for line in out.splitlines() if line.startswith("RESULT "))[7:])
             total = sum(v for k, v in res["profile"].items() if "." not in k)
-            print(f"run {r + 1}, fast_math {mode}: {total * 1e3:.2f} ms/step; "
-                  f"largest difference of the state from the first 'off' run after {a.settle + a.steps + a.compare} steps: {res['diff']:.3g}",
-                  flush=True)
+            after = a.settle + a.steps + a.compare
+            print(
+                f"run {r + 1}, fast_math {mode}: {total * 1e3:.2f} ms/step; largest difference of the state "
+                f"from the first 'off' run after {after} steps: {res['diff']:.3g}",
+                flush=True,
+            )
             runs.append(res)
+    off_diff = max(r["diff"] for r in runs if r["mode"] == "off")
+    assert off_diff == 0.0, f"the fast_math-off runs should be bit-identical, differ by {off_diff:.3g}"
     kernels = [k for k in runs[0]["profile"] if "." in k]
     rows = []
     for k in [*kernels, "step"]:
@@ -106,7 +138,8 @@ def main() -> None:
         for mode in ("off", "on"):
             vals = [
                 (sum(v for kk, v in r["profile"].items() if "." not in kk) if k == "step" else r["profile"][k]) * 1e3
-                for r in runs if r["mode"] == mode
+                for r in runs
+                if r["mode"] == mode
             ]
             med[mode] = statistics.median(vals)
         rows.append((k, med["off"], med["on"], med["on"] / med["off"] if med["off"] > 0 else float("nan")))
@@ -118,6 +151,14 @@ def main() -> None:
         worst = max(r["diff"] for r in runs if r["mode"] == "on")
         for k, off, on, ratio in rows:
             w.writerow([k, f"{off:.4f}", f"{on:.4f}", f"{ratio:.3f}", a.n, a.repeats, f"{worst:.3g}"])
+    with open(out / "fast_math_runs.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["run", "mode", "kernel", "ms_per_step", "largest_state_difference"])
+        for q, r in enumerate(runs):
+            step = sum(v for k, v in r["profile"].items() if "." not in k)
+            for k in [*kernels, "step"]:
+                v = step if k == "step" else r["profile"][k]
+                w.writerow([q // 2 + 1, r["mode"], k, f"{v * 1e3:.4f}", f"{r['diff']:.3g}"])
     print(f"{'kernel':40s} {'off':>8s} {'on':>8s} {'on/off':>7s}")
     for k, off, on, ratio in rows:
         print(f"{k:40s} {off:8.3f} {on:8.3f} {ratio:7.3f}")
@@ -132,8 +173,9 @@ def main() -> None:
     ax.set_yticks(list(ys), [r[0] for r in shown])
     ax.invert_yaxis()
     step = rows[-1]
-    ax.set_xlabel("ms per step (median of %d, alternating)" % a.repeats)
-    ax.set_title(f"N = {a.n:,}, parallel form, 2 threads: step {step[1]:.1f} -> {step[2]:.1f} ms ({step[3]:.2f}x)")
+    ax.set_xlabel(f"ms per step (median of {a.repeats}, alternating)")
+    threads = runs[0]["threads"]
+    ax.set_title(f"N = {a.n:,}, parallel form, {threads} threads: step {step[1]:.2f} -> {step[2]:.2f} ms ({step[3]:.2f}x)")
     ax.legend()
     fig.tight_layout()
     fig.savefig(out / "fast_math.png", dpi=120)
