@@ -419,6 +419,21 @@ def test_readme_links_exist():
     assert "../shared" not in text
 
 
+def test_docs_links_and_figures_exist():
+    """Every relative link and figure in docs/ and the folders' READMEs is a file of the
+    repository (a figure made into a git-ignored folder and never committed was a broken
+    image in docs/validation.md)."""
+    import re
+
+    pages = [*sorted((ROOT / "docs").glob("*.md")), ROOT / "validation" / "README.md", ROOT / "benchmarks" / "README.md"]
+    missing = []
+    for page in pages:
+        for link in re.findall(r"\]\(([^)#\s]+)\)", page.read_text()):
+            if not link.startswith(("http://", "https://", "mailto:")) and not (page.parent / link).exists():
+                missing.append(f"{page.relative_to(ROOT)}: {link}")
+    assert not missing, missing
+
+
 def readme_blocks() -> list[tuple[str, str]]:
     """The README's fenced code blocks, in order: (language, text)."""
     import re
