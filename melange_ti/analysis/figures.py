@@ -43,7 +43,7 @@ from ..errors import RunError  # noqa: E402
 from ..io.hdf5 import OutputError, is_partial, read_run  # noqa: E402
 from ..scene import SceneError, stored_scene  # noqa: E402
 from . import stats  # noqa: E402
-from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners  # noqa: E402
+from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners, wave_surface  # noqa: E402
 from .runs import (  # noqa: E402, F401 (load_run and parse_times are part of this module's interface)
     Group,
     Run,
@@ -277,7 +277,7 @@ def fig_snapshots(
         w, h = r.data["icebergs"]["width"], r.data["icebergs"]["thickness"]
         for row, (k, sel, _, x1) in enumerate(col):
             ax = axes[row, c]
-            draw_sea(ax, r.scene, (zlo, zhi))
+            draw_sea(ax, r.scene, (zlo, zhi), wave_surface(r.data, k))
             art = IcebergArtist(ax, w[sel], h[sel], discs=r.scene.contacts.discs)
             art.update(r.snaps["x"][k][sel], r.snaps["z"][k][sel], r.snaps["theta"][k][sel])
             mappable = art.rects

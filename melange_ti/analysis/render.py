@@ -2,7 +2,8 @@
 
 Each iceberg is drawn as its rectangle coloured by the capsize angle ``phi`` in
 ``[0, pi/2]`` (docs/model.md; capsized from ``pi/4``), optionally with the collision discs
-(``--discs``), over the sea (the water line at ``physics.water_level``) and the wall.
+(``--discs``), over the sea (the water line at ``physics.water_level``; with the ``waves``
+effect, the moving surface ``water_level + eta`` over the wave grid) and the wall.
 The movie is encoded by the ``ffmpeg`` binary shipped in the ``imageio-ffmpeg`` wheel.
 """
 
@@ -19,6 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection, PolyCollection  # noqa: E402
 from matplotlib.colors import Normalize  # noqa: E402
+from matplotlib.patches import Polygon  # noqa: E402
 
 from .. import diagnostics as diag  # noqa: E402
 from ..errors import RunError  # noqa: E402
@@ -116,13 +118,51 @@ class IcebergArtist:
             self.circles.set_offsets(centres.reshape(-1, 2))
 
 
-def draw_sea(ax, scene: Scene, zlim: tuple[float, float]) -> None:
-    """Water below the water line, the line itself and (with the ``wall`` effect) the wall."""
+def wave_surface(run: dict, k: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(x, eta)``: the wave grid's cell centres and snapshot ``k``'s surface elevation, for a
+    run with the ``waves`` effect; ``None`` otherwise."""
+    x = run.get("waves", {}).get("x")
+    eta = run["snapshots"].get("eta")
+    if x is None or eta is None or k >= len(eta):
+        return None
+    return np.asarray(x, dtype=np.float64), np.asarray(eta[k], dtype=np.float64)
+
+
+class SeaSurface:
+    """The water below a moving surface ``water_level + eta(x)`` (flat beyond the wave grid)
+    and the surface line; :meth:`update` moves them to another snapshot's ``eta``."""
+
+    FAR = 1e6
+
+    def __init__(self, ax, water_level: float, x: np.ndarray, bottom: float):
+        self.wl = water_level
+        self.x = np.concatenate(([x[0] - self.FAR], x, [x[-1] + self.FAR]))
+        self.bottom = bottom
+        self.water = Polygon(np.zeros((2 * len(self.x), 2)), closed=True, color=WATER, lw=0, zorder=0)
+        ax.add_patch(self.water)
+        (self.line,) = ax.plot(self.x, np.full(len(self.x), water_level), color=WATER_LINE, lw=1.0, zorder=2)
+
+    def update(self, eta: np.ndarray) -> None:
+        z = self.wl + np.concatenate(([0.0], eta, [0.0]))
+        self.line.set_ydata(z)
+        self.water.set_xy(np.vstack([np.column_stack([self.x, z]), [[self.x[-1], self.bottom], [self.x[0], self.bottom]]]))
+
+
+def draw_sea(ax, scene: Scene, zlim: tuple[float, float], surface: tuple[np.ndarray, np.ndarray] | None = None):
+    """Water below the water line, the line itself and (with the ``wall`` effect) the wall.
+    With ``surface`` (:func:`wave_surface`) the water line is the waves' moving surface;
+    returns its :class:`SeaSurface` (None for a flat sea)."""
     wl = scene.physics.water_level
-    ax.axhspan(zlim[0] - 1e3, wl, color=WATER, zorder=0, lw=0)
-    ax.axhline(wl, color=WATER_LINE, lw=1.0, zorder=2)
+    sea = None
+    if surface is None:
+        ax.axhspan(zlim[0] - 1e3, wl, color=WATER, zorder=0, lw=0)
+        ax.axhline(wl, color=WATER_LINE, lw=1.0, zorder=2)
+    else:
+        sea = SeaSurface(ax, wl, surface[0], zlim[0] - 1e3)
+        sea.update(surface[1])
     if scene.effects.wall:
         ax.axvline(scene.physics.wall_x, color=WALL, lw=3.0, zorder=5)
+    return sea
 
 
 def phi_colorbar(fig, mappable, ax, **kw):
@@ -225,8 +265,12 @@ class FrameMaker:
             self.axz = None
             axes = (self.ax,)
         self.artists = []
+        self.seas = []
+        first = wave_surface(run, int(frames[0]))
         for k, ax in enumerate(axes):
-            draw_sea(ax, scene, self.zlim)
+            sea = draw_sea(ax, scene, self.zlim, first)
+            if sea is not None:
+                self.seas.append(sea)
             ax.set_ylim(*self.zlim)
             ax.set_ylabel("z (widths)")
             overview = self.zoom and k == 0  # edges would hide the icebergs at that scale
@@ -249,6 +293,9 @@ class FrameMaker:
         x, z, theta = snaps["x"][k], snaps["z"][k], snaps["theta"][k]
         for art in self.artists:
             art.update(x, z, theta)
+        surface = wave_surface(self.run, k) if self.seas else None
+        for sea in self.seas:
+            sea.update(surface[1])
         if self.axz is not None:
             front = float(np.max(x)) + 2.0
             self.axz.set_xlim(front - ZOOM_SPAN, front)

@@ -336,8 +336,9 @@ def is_partial(path: str | Path) -> bool:
 def read_run(path: str | Path) -> dict:
     """Load a run file into plain numpy arrays, cut to consistent lengths.
 
-    Returns ``{"attrs": {...}, "icebergs": {...}, "snapshots": {...}, "diagnostics": {...}}``.
-    Raises :class:`OutputError` with one line for a file that is not a readable run.
+    Returns ``{"attrs": {...}, "icebergs": {...}, "snapshots": {...}, "diagnostics": {...}}``,
+    and ``"waves": {"x": ...}`` (the wave grid's cell centres) for a run with the ``waves``
+    effect. Raises :class:`OutputError` with one line for a file that is not a readable run.
     """
     with _reading(path) as f:
         out = {"attrs": {k: _plain(v) for k, v in f.attrs.items()}}
@@ -345,6 +346,8 @@ def read_run(path: str | Path) -> dict:
             g = f[group]
             n = consistent_length(g) if group != "icebergs" else None
             out[group] = {k: (ds[:n] if n is not None else ds[:]) for k, ds in g.items()}
+        if "waves" in f:
+            out["waves"] = {k: ds[:] for k, ds in f["waves"].items()}
     return out
 
 

@@ -240,6 +240,7 @@ def test_waves_are_bit_identical_across_kernel_forms():
         ({"wave_end": 100.0, "wave_sponge": 100.0}, "physics.wave_sponge"),
         ({"wave_dx": 0.0}, "physics.wave_dx"),
         ({"water_depth": -2.0}, "physics.water_depth"),
+        ({"water_depth": 1.0}, "physics.water_depth"),  # at the default pressure depth: both keys named
         ({"wave_end": 1e6, "wave_dx": 0.01}, "physics.wave_dx"),
     ],
 )
@@ -279,3 +280,46 @@ def test_a_grid_too_fine_for_the_time_step_is_refused():
         make_scene(WAVES_ONLY, [berg], physics, dt=0.5)
     assert "physics.wave_dx" in str(err.value) and "time.dt" in str(err.value) and "\n" not in str(err.value)
     make_scene(WAVES_ONLY, [berg], physics, dt=0.1)
+
+
+def test_run_file_keeps_the_surface_and_the_movie_draws_it(tmp_path):
+    """A run with waves keeps the grid (``/waves/x``) and the surface (``/snapshots/eta``); the
+    movie's frames (and the snapshot figure, through the same ``draw_sea``) draw the water line
+    at ``water_level + eta`` over the grid, not flat; a run without waves keeps the flat sea."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import melange_ti as mt
+    from melange_ti.analysis import render
+    from melange_ti.scene import loads
+
+    text = (
+        '[scene]\neffects = ["gravity", "buoyancy", "waves"]\n'
+        "[physics]\nwave_end = 40.0\nwave_sponge = 10.0\nwave_dx = 0.125\n"
+        "[shelf]\ncount = 6\ngap = 2.0\ntilt = 0.3\n[time]\ndt = 0.02\nduration = 2.0\n"
+        "[output]\nsnapshot_interval = 0.5\ndiagnostic_interval = 0.2\n"
+    )
+    path = tmp_path / "waves.h5"
+    mt.run(loads(text), path)
+    run, scene = render.load_run(path)
+    eta = run["snapshots"]["eta"]
+    assert run["waves"]["x"].shape == eta.shape[1:] and float(np.max(np.abs(eta[-1]))) > 1e-4
+    frames = render.frame_indices(len(run["snapshots"]["time"]), 1)
+    maker = render.FrameMaker(run, scene, False, frames)
+    try:
+        assert maker.seas, "a run with waves draws a moving surface"
+        for k in (0, len(frames) - 1):
+            maker.draw(k)
+            for sea in maker.seas:
+                line = sea.line.get_ydata()
+                np.testing.assert_array_equal(line[1:-1], scene.physics.water_level + eta[k])
+                np.testing.assert_array_equal(sea.line.get_xdata()[1:-1], run["waves"]["x"])
+                top = sea.water.get_xy()[: len(line)]  # the water's upper edge is the line
+                np.testing.assert_array_equal(top[:, 1], line)
+    finally:
+        maker.close()
+    flat = {**run, "waves": {}}
+    assert render.wave_surface(flat, 0) is None
+    maker = render.FrameMaker(flat, scene, False, frames)
+    assert not maker.seas
+    maker.close()

@@ -110,7 +110,8 @@ def check(physics, dt: float) -> tuple[str, float, str] | None:
         return (
             "physics.wave_pressure_depth",
             physics.wave_pressure_depth,
-            f"must be less than water_depth = {physics.water_depth:g}",
+            f"must be less than physics.water_depth = {physics.water_depth:g} (a smaller wave_pressure_depth, default 1, "
+            "or deeper water)",
         )
     if physics.wave_sponge >= length:
         return "physics.wave_sponge", physics.wave_sponge, f"must be less than wave_end - wall_x = {length:g}"
