@@ -126,7 +126,9 @@ def _open_tree(xr, path: Path, complete: bool):
 def open_run(path: str | Path):
     """The run file ``path`` as an :class:`xarray.DataTree`: groups ``icebergs``,
     ``snapshots`` and ``diagnostics`` with named dimensions ``time`` and ``iceberg``, ``time``
-    as a coordinate, ``units`` and ``long_name`` on every variable. A file still being
+    as a coordinate, ``units`` and ``long_name`` on every variable; with the ``waves``
+    effect, ``snapshots.eta`` over dimension ``wave_cell`` has the cells' positions as the
+    coordinate ``wave_x``. A file still being
     written (or cut short by a kill) is read up to its last consistent row. The tree reads
     lazily and keeps the file open: close it (``tree.close()``, or ``with mt.open_run(p) as
     tree:``) before opening the file again to see rows written since."""
@@ -153,6 +155,9 @@ def open_run(path: str | Path):
             node = tree[group]
             if "time" in node.dims and node.sizes["time"] != n:
                 tree[group] = node.to_dataset().isel(time=slice(0, n))
+        if "waves" in tree.children and "eta" in tree["snapshots"].data_vars:
+            # the surface's cells located: eta.isel(time=-1).plot(x="wave_x")
+            tree["snapshots"] = tree["snapshots"].to_dataset().assign_coords(wave_x=tree["waves"]["x"].variable)
     except Exception:
         tree.close()  # an open handle would pin HDF5's view of a growing file
         raise

@@ -189,7 +189,10 @@ def output_page() -> str:
     out += [
         "",
         'State is float64 (float32 with `precision = "f32"`); `theta` is continuous, not wrapped. The',
-        "first snapshot and diagnostic are at t = 0, the last at the end of the run.",
+        "first snapshot and diagnostic are at t = 0, the last at the end of the run. With the",
+        "waves effect, `mt.open_run` gives `snapshots.eta` the cells' positions `/waves/x` as the",
+        'coordinate `wave_x`: `tree["snapshots"].eta.isel(time=-1).plot(x="wave_x")` draws the last',
+        "surface; `melange-ti plot` and `render` draw it under the icebergs.",
         "",
         *_budget_section(),
     ]

@@ -318,6 +318,10 @@ def test_run_file_keeps_the_surface_and_the_movie_draws_it(tmp_path):
                 np.testing.assert_array_equal(top[:, 1], line)
     finally:
         maker.close()
+    with mt.open_run(path) as tree:  # the xarray view locates the surface's cells
+        surface = tree["snapshots"].eta.isel(time=-1)
+        np.testing.assert_array_equal(surface["wave_x"].values, run["waves"]["x"])
+        np.testing.assert_array_equal(surface.values, eta[-1])
     flat = {**run, "waves": {}}
     assert render.wave_surface(flat, 0) is None
     maker = render.FrameMaker(flat, scene, False, frames)
