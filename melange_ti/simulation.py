@@ -73,7 +73,7 @@ class RunSummary:
     backend: str = _doc('the Taichi backend that ran it ("x64", "arm64", "cuda", "vulkan", ...)')
 
     def lines(self) -> list[str]:
-        rel = self.energy_residual / self.energy_released if self.energy_released else float("nan")
+        share = f"{self.energy_residual / self.energy_released:.2%} of released" if self.energy_released else "none released"
         how = "compiling the kernels" if self.compiled else "loading the kernels from the cache"
         rest = self.steps - self.startup_steps
         speed = (
@@ -87,7 +87,7 @@ class RunSummary:
             f"capsized fraction {self.capsized_fraction:.3f}, leading edge {self.leading_edge:.3f} widths",
             f"energy: released (potential, E_p(0) - E_p(t)) {self.energy_released:.6g}; lost (E(0) - E(t)) "
             f"{self.energy_lost:.6g} = dissipated {self.dissipated:.6g} + residual {self.energy_residual:.3g} "
-            f"({rel:.2%} of released)",
+            f"({share})",
             f"output: {self.path} (ran on Taichi's {self.backend} backend)",
         ]
 

@@ -145,6 +145,22 @@ def test_run_succeeds_and_prints_summary(tiny_run):
     assert "run.h5" in text
 
 
+def test_summary_of_a_run_that_released_nothing_says_so():
+    """A scene whose icebergs release no potential energy (waves alone, resting icebergs)
+    prints its residual without a 'nan%' share."""
+    import dataclasses
+
+    from melange_ti.simulation import RunSummary
+
+    values = {f.name: 0 for f in dataclasses.fields(RunSummary)}
+    values.update(path="r.h5", steps=10, wall_seconds=1.0, startup_seconds=0.5, startup_steps=5, steps_per_second=10.0)
+    values.update(compiled=False, backend="x64", energy_residual=0.0, energy_released=0.0)
+    text = "\n".join(RunSummary(**values).lines())
+    assert "none released" in text and "nan" not in text, text
+    values.update(energy_released=2.0, energy_residual=-0.001)
+    assert "(-0.05% of released)" in "\n".join(RunSummary(**values).lines())
+
+
 def test_overwrite_replaces_the_old_file(tiny_run):
     proc, out = tiny_run
     assert proc.returncode == 0, proc.stderr
