@@ -294,7 +294,7 @@ class FrameMaker:
         for art in self.artists:
             art.update(x, z, theta)
         surface = wave_surface(self.run, k) if self.seas else None
-        for sea in self.seas:
+        for sea in self.seas if surface is not None else ():
             sea.update(surface[1])
         if self.axz is not None:
             front = float(np.max(x)) + 2.0

@@ -240,7 +240,7 @@ def test_waves_are_bit_identical_across_kernel_forms():
         ({"wave_end": 100.0, "wave_sponge": 100.0}, "physics.wave_sponge"),
         ({"wave_dx": 0.0}, "physics.wave_dx"),
         ({"water_depth": -2.0}, "physics.water_depth"),
-        ({"water_depth": 1.0}, "physics.water_depth"),  # at the default pressure depth: both keys named
+        ({"water_depth": 1.0}, "physics.wave_pressure_depth"),  # at the default pressure depth: both named
         ({"wave_end": 1e6, "wave_dx": 0.01}, "physics.wave_dx"),
     ],
 )
@@ -249,6 +249,8 @@ def test_wave_keys_are_checked(physics, key):
     with pytest.raises(SceneError) as err:
         make_scene(WAVES_ONLY, [berg], physics)
     assert key in str(err.value) and "\n" not in str(err.value)
+    if key == "physics.wave_pressure_depth":
+        assert "physics.water_depth" in str(err.value)
 
 
 def test_checkpoint_keeps_the_sea_and_resumes_bit_for_bit():
@@ -304,11 +306,11 @@ def test_run_file_keeps_the_surface_and_the_movie_draws_it(tmp_path):
     run, scene = render.load_run(path)
     eta = run["snapshots"]["eta"]
     assert run["waves"]["x"].shape == eta.shape[1:] and float(np.max(np.abs(eta[-1]))) > 1e-4
-    frames = render.frame_indices(len(run["snapshots"]["time"]), 1)
+    frames = render.frame_indices(len(run["snapshots"]["time"]), 2)  # snapshots 0, 2, 4 (and the last)
     maker = render.FrameMaker(run, scene, False, frames)
     try:
         assert maker.seas, "a run with waves draws a moving surface"
-        for k in (0, len(frames) - 1):
+        for k in (int(frames[1]), int(frames[-1])):
             maker.draw(k)
             for sea in maker.seas:
                 line = sea.line.get_ydata()

@@ -110,7 +110,7 @@ def check(physics, dt: float) -> tuple[str, float, str] | None:
         return (
             "physics.wave_pressure_depth",
             physics.wave_pressure_depth,
-            f"must be less than physics.water_depth = {physics.water_depth:g} (a smaller wave_pressure_depth, default 1, "
+            f"must be less than physics.water_depth = {physics.water_depth:g} (set a smaller wave_pressure_depth "
             "or deeper water)",
         )
     if physics.wave_sponge >= length:
