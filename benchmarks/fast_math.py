@@ -22,11 +22,11 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import statistics
-import subprocess
 import sys
 from pathlib import Path
+
+from children import report, run_child, saved_state, state_difference
 
 
 def child(a) -> None:
@@ -53,17 +53,9 @@ def child(a) -> None:
     m.advance(a.settle)
     prof = m.profile(a.steps, parts=True)
     m.advance(a.compare)
-    state = m.state()
-    ref = Path(a.state).with_suffix(".reference.npz")
-    diff = None
-    if ref.exists():
-        r = np.load(ref)
-        diff = max(float(np.max(np.abs(state[k] - r[k]))) for k in state)
-    elif a.child == "off":
-        np.savez(ref, **state)
-        diff = 0.0
+    diff = state_difference(m.state(), Path(a.state).with_suffix(".reference.npz"))  # the first child is an 'off' one
     threads = ti.lang.impl.current_cfg().cpu_max_num_threads
-    print("RESULT " + json.dumps({"mode": a.child, "profile": prof, "diff": diff, "threads": threads}), flush=True)
+    report({"mode": a.child, "profile": prof, "diff": diff, "threads": threads})
 
 
 def main() -> None:
@@ -81,24 +73,7 @@ def main() -> None:
     if a.child:
         child(a)
         return
-    if not Path(a.state).exists():
-        subprocess.run(
-            [
-                sys.executable,
-                str(Path(__file__).with_name("profile_stages.py")),
-                "--n",
-                str(a.n),
-                "--warm",
-                str(a.warm),
-                "--steps",
-                "0",
-                "--islands",
-                "off",
-                "--state",
-                a.state,
-            ],
-            check=True,
-        )
+    saved_state(a.state, a.n, a.warm)
     Path(a.state).with_suffix(".reference.npz").unlink(missing_ok=True)
     runs = []
     for r in range(a.repeats):
@@ -119,8 +94,7 @@ def main() -> None:
                 "--compare",
                 str(a.compare),
             ]
-            out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
-            res = json.loads(next(line for line in out.splitlines() if line.startswith("RESULT "))[7:])
+            res = run_child(cmd)
             total = sum(v for k, v in res["profile"].items() if "." not in k)
             after = a.settle + a.steps + a.compare
             print(

@@ -27,10 +27,11 @@ import argparse
 import csv
 import json
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
+
+from children import report, run_child, saved_state, state_difference
 
 
 def child(a) -> None:
@@ -60,15 +61,8 @@ def child(a) -> None:
             m.advance(2000)
             best = min(best, (time.perf_counter() - t0) / 2000)
         res = {"step_us": best * 1e6}
-    state = m.state()
-    ref = Path(a.reference)
-    if ref.exists():
-        r = np.load(ref)
-        res["diff"] = max(float(np.max(np.abs(state[k] - r[k]))) for k in state)
-    else:
-        np.savez(ref, **state)
-        res["diff"] = 0.0
-    print("RESULT " + json.dumps(res), flush=True)
+    res["diff"] = state_difference(m.state(), a.reference)
+    report(res)
 
 
 def main() -> None:
@@ -93,24 +87,8 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     skins = [float(s) for s in a.skins.split(",")]
     cases = a.cases.split(",")
-    if "large" in cases and not Path(a.state).exists():
-        subprocess.run(
-            [
-                sys.executable,
-                str(Path(__file__).with_name("profile_stages.py")),
-                "--n",
-                str(a.n),
-                "--warm",
-                str(a.warm),
-                "--steps",
-                "0",
-                "--islands",
-                "off",
-                "--state",
-                a.state,
-            ],
-            check=True,
-        )
+    if "large" in cases:
+        saved_state(a.state, a.n, a.warm)
     refs = {case: out / f"reference_{case}.npz" for case in cases}
     for ref in refs.values():
         ref.unlink(missing_ok=True)
@@ -136,8 +114,7 @@ def main() -> None:
                     "--reference",
                     str(refs[case]),
                 ]
-                text = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
-                res = json.loads(next(line for line in text.splitlines() if line.startswith("RESULT "))[7:])
+                res = run_child(cmd)
                 res.update(run=r + 1, case=case, skin=skin)
                 rows.append(res)
                 print(json.dumps(res), flush=True)

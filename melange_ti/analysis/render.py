@@ -293,9 +293,10 @@ class FrameMaker:
         x, z, theta = snaps["x"][k], snaps["z"][k], snaps["theta"][k]
         for art in self.artists:
             art.update(x, z, theta)
-        surface = wave_surface(self.run, k) if self.seas else None
-        for sea in self.seas if surface is not None else ():
-            sea.update(surface[1])
+        if self.seas:  # the run has waves: read_run cut eta to the snapshots' length
+            _, eta = wave_surface(self.run, k)
+            for sea in self.seas:
+                sea.update(eta)
         if self.axz is not None:
             front = float(np.max(x)) + 2.0
             self.axz.set_xlim(front - ZOOM_SPAN, front)
