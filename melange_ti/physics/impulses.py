@@ -96,17 +96,22 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
     if vn < 0 and gap + a.par[Param.DT] * vn < 0:
         e = a.par[Param.RESTITUTION]
         kk, m1, i1, a1, m2, i2, a2 = pair_mass(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz)
-        jn = -(1.0 + e) * vn / kk
-        push(a, i, j, jn, nx, nz, m1, i1, a1, m2, i2, a2)
-        dissipated = 0.5 * (1.0 - e * e) * vn * vn / kk
         # the step's energy is the kinetic energy at the mid-kick velocities, half a kick
         # before the ones the impulse acts on: book the difference (docs/model.md)
         kick_vn = relative_normal(a, i, j, Body.KICK_VX, Body.KICK_VZ, Body.KICK_OM, rx1, rz1, rx2, rz2, nx, nz)
-        offset = 0.5 * jn * kick_vn
+        jn = 0.0
+        dissipated = 0.0
+        offset = 0.0
         rubbed = 0.0
         if ti.static(fx.friction):
-            jt, rubbed, kick_vt = tangential(fx, a, i, j, rx1, rz1, rx2, rz2, -nz, nx, jn)
-            offset += 0.5 * jt * kick_vt
+            jn, dissipated, rubbed, offset = coulomb(
+                fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, kk, m1, i1, a1, m2, i2, a2, kick_vn
+            )
+        else:
+            jn = -(1.0 + e) * vn / kk
+            push(a, i, j, jn, nx, nz, m1, i1, a1, m2, i2, a2)
+            dissipated = 0.5 * (1.0 - e * e) * vn * vn / kk
+            offset = 0.5 * jn * kick_vn
         if ti.static(defer):
             a.cd[slot, i, Contact.DEF_COLLISION] = dissipated
             a.cd[slot, i, Contact.DEF_OFFSET] = offset
@@ -125,19 +130,46 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
 
 
 @ti.func
-def tangential(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, tx, tz, jn):
-    """Coulomb friction after the normal impulse ``jn`` (effect ``friction``,
-    :mod:`.effects.friction`): the tangential impulse along ``t`` that stops the sliding
-    ``v_t``, clamped to ``|J_t| <= mu jn``, applied to the pair. Returns ``(J_t, the kinetic
-    energy it removed, the kick's tangential relative velocity)``."""
+def coulomb(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, knn, m1, i1, c1n, m2, i2, c2n, kick_vn):
+    """The impulse ``P = J_n n + J_t t`` of Newton's restitution with Coulomb friction
+    (effect ``friction``, :mod:`.effects.friction`; derived in docs/model.md), applied to
+    the pair: the contact point's relative velocity ``u = (v_n, v_t)`` changes by ``K P``,
+    ``K`` the 2x2 effective-mass matrix of the point (``K_nt`` couples the two directions
+    at an off-centre contact). ``v_n' = -e v_n`` always; the contact sticks (``v_t' = 0``)
+    when that impulse lies in the cone ``|J_t| <= mu J_n``, else it slides along the cone's
+    edge on that side. Returns ``(J_n, the normal impulse's dissipation, the tangential
+    impulse's, the half-kick offset)``: each impulse's work at its direction's mean
+    velocity, ``-J (v + v') / 2``, which sum to the kinetic energy lost."""
+    tx = -nz
+    tz = nx
+    ktt, _m1, _i1, c1t, _m2, _i2, c2t = pair_mass(fx, a, i, j, rx1, rz1, rx2, rz2, tx, tz)
+    knt = c1n * c1t / i1
+    if j >= 0:
+        knt += c2n * c2t / i2
     vt = relative_normal(a, i, j, Body.VX, Body.VZ, Body.OM, rx1, rz1, rx2, rz2, tx, tz)
-    kt, m1, i1, c1, m2, i2, c2 = pair_mass(fx, a, i, j, rx1, rz1, rx2, rz2, tx, tz)
-    limit = a.par[Param.FRICTION] * jn
-    jt = ti.min(ti.max(-vt / kt, -limit), limit)
-    push(a, i, j, jt, tx, tz, m1, i1, c1, m2, i2, c2)
-    rubbed = -jt * (vt + 0.5 * jt * kt)
+    mu = a.par[Param.FRICTION]
+    dvn = -(1.0 + e) * vn  # the normal velocity change restitution asks for
+    # stick: K P = (dvn, -v_t), solved through the tangential Schur complement (> 0: K is positive definite)
+    jt = -(vt + knt * dvn / knn) / (ktt - knt * knt / knn)
+    jn = (dvn - knt * jt) / knn
+    if ti.abs(jt) > mu * jn:  # outside the cone: slide on its edge on jt's side (mu = 0: the frictionless J_n)
+        side = 1.0 if jt > 0 else -1.0
+        jn = dvn / (knn + side * mu * knt)  # > 0 here: the stick impulse lies outside the cone on this side
+        jt = side * mu * jn
+    px = jn * nx + jt * tx
+    pz = jn * nz + jt * tz
+    b = ti.static(a.b)
+    b[i, Body.VX] += px / m1
+    b[i, Body.VZ] += pz / m1
+    b[i, Body.OM] += (c1n * jn + c1t * jt) / i1
+    if j >= 0:
+        b[j, Body.VX] -= px / m2
+        b[j, Body.VZ] -= pz / m2
+        b[j, Body.OM] -= (c2n * jn + c2t * jt) / i2
+    vn_after = vn + knn * jn + knt * jt
+    vt_after = vt + knt * jn + ktt * jt
     kick_vt = relative_normal(a, i, j, Body.KICK_VX, Body.KICK_VZ, Body.KICK_OM, rx1, rz1, rx2, rz2, tx, tz)
-    return jt, rubbed, kick_vt
+    return jn, -0.5 * jn * (vn + vn_after), -0.5 * jt * (vt + vt_after), 0.5 * jn * kick_vn + 0.5 * jt * kick_vt
 
 
 @ti.func

@@ -1,18 +1,17 @@
 """Coulomb friction at iceberg-iceberg and wall contacts (beyond the paper).
 
-Each impulse of the contact law (:mod:`..impulses`) is followed, at the same contact, by a
-tangential impulse along ``t = (-n_z, n_x)`` that opposes the tangential relative velocity
-``v_t`` the normal impulse left, clamped by Coulomb's law to ``|J_t| <= mu J_n``:
-
-``J_t = clamp(-v_t / K_t, -mu J_n, mu J_n)``,
-``K_t = 1/m_i + 1/m_j + (r_i x t)^2 / I_i + (r_j x t)^2 / I_j``.
-
-Unclamped, the contact sticks (``v_t' = 0``); clamped, it slips (``v_t' = v_t + J_t K_t``,
-same sign as ``v_t``). Equal and opposite at one point, it conserves the pair's momentum and
-angular momentum; the kinetic energy it removes, ``-J_t (v_t + J_t K_t / 2) >= 0``
-(``0.5 v_t^2 / K_t`` when sticking), is booked in ``friction_dissipated``, and its half-kick
-offset with the normal impulse's in ``impulse_offset_work``. The wall is a partner of
-infinite mass. The order of the pass, and so its bits, is the contact law's.
+With it the contact law (:func:`..impulses.coulomb`) is Newton's restitution with Coulomb's
+cone, one impulse ``J = J_n n + J_t t`` (``t = (-n_z, n_x)``) solved with the contact point's
+2x2 effective-mass matrix ``K`` (``K_nt`` couples the directions at an off-centre contact):
+``v_n' = -e v_n`` always; the contact sticks (``v_t' = 0``) when that impulse lies in the cone
+``|J_t| <= mu J_n``, else it slides on the cone's edge, ``J_t = s mu J_n``,
+``J_n = -(1 + e) v_n / (K_nn + s mu K_nt)``. Equal and opposite at one point, it conserves the
+pair's momentum and angular momentum; each impulse's work at its direction's mean velocity is
+booked, ``-J_n (v_n + v_n') / 2`` in ``collision_dissipated`` and ``-J_t (v_t + v_t') / 2`` in
+``friction_dissipated`` (their sum is the kinetic energy lost), its half-kick offset in
+``impulse_offset_work``. The wall is a partner of infinite mass. The order of the pass, and
+so its bits, is the contact law's; ``mu = 0`` gives the frictionless impulse to the bit.
+Derived in docs/model.md ("Contacts").
 """
 
 from ..columns import Column
@@ -21,7 +20,7 @@ from .base import Effect, Key
 EFFECT = Effect(
     name="friction",
     doc="beyond the paper: Coulomb friction at iceberg-iceberg and wall contacts, |J_t| <= friction * J_n "
-    "(stick or slip); booked in friction_dissipated",
+    "(stick or slide, coupled with the restitution); booked in friction_dissipated",
     keys=(
         Key.nonnegative(
             "friction", 0.3, "1", "mu, Coulomb friction coefficient of ice on ice and on the wall (used with the friction effect)"

@@ -1,0 +1,134 @@
+"""What the tests and the validation scripts share: scenes of a few explicit icebergs written as
+a user would, a model's first impulse read off its velocities and contact columns, and the
+contact law of docs/model.md written again in numpy, independently of the kernels, to check
+them against.
+
+Nothing here is used by a run; it is importable so that ``tests/`` and ``validation/`` use one
+copy (validation scripts do not import from ``tests/``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import scene as scene_mod
+from .physics.schema import STATE_NAMES
+from .scene import dumps_toml
+
+
+# ---------------------------------------------------------------- scenes
+def make_scene(
+    effects: Iterable[str],
+    bergs: Iterable[Mapping[str, float]],
+    physics: Mapping | None = None,
+    *,
+    contacts: Mapping | None = None,
+    dt: float = 0.01,
+    name: str = "physics",
+) -> scene_mod.Scene:
+    """A validated scene of the ``[[iceberg]]`` tables ``bergs`` (one step long; every output
+    interval one step), with ``[physics]`` and ``[contacts]`` values as given."""
+    doc = {
+        "scene": {"name": name, "effects": list(effects)},
+        "physics": dict(physics or {}),
+        "contacts": dict(contacts or {}),
+        "time": {"dt": dt, "duration": dt},
+        "output": {"snapshot_interval": dt, "diagnostic_interval": dt, "checkpoint_interval": dt},
+        "iceberg": [{k: float(v) for k, v in b.items()} for b in bergs],
+    }
+    return scene_mod.loads(dumps_toml(doc))
+
+
+def initial(sc: scene_mod.Scene) -> dict[str, np.ndarray]:
+    """The scene's initial state, ``{x, z, theta, vx, vz, omega}`` as float arrays (N,)."""
+    b = sc.icebergs()
+    return {k: np.array(getattr(b, k), dtype=float) for k in STATE_NAMES}
+
+
+def kinetic(s: Mapping[str, np.ndarray], idx: Iterable[int], mass, inertia) -> float:
+    """Kinetic energy of the bodies ``idx`` of state ``s``."""
+    return sum(0.5 * mass[q] * (s["vx"][q] ** 2 + s["vz"][q] ** 2) + 0.5 * inertia[q] * s["omega"][q] ** 2 for q in idx)
+
+
+def first_impulse(m, steps: int = 40):
+    """Step one at a time until an impulse is applied: (state before, after, totals before, after)."""
+    for _ in range(steps):
+        b, tb = m.state(), m.totals()
+        m.advance(1)
+        a, ta = m.state(), m.totals()
+        if ta.impulses > tb.impulses:
+            return b, a, tb, ta
+    raise AssertionError(f"no impulse within {steps} steps")
+
+
+def corner_x(width: float, thickness: float, theta: float) -> float:
+    """How far a rectangle's leftmost corner lies left of its centre at tilt ``theta``."""
+    return 0.5 * width * abs(np.cos(theta)) + 0.5 * thickness * abs(np.sin(theta))
+
+
+# ---------------------------------------------------------------- contacts read off a model
+@dataclass(frozen=True)
+class ContactSeen:
+    """A contact of body ``i`` (partner ``j``, -1 for the wall) as the step's impulse pass met
+    it: point ``p`` and unit normal ``n`` (from j to i), read from the model's contact columns."""
+
+    i: int
+    j: int
+    p: np.ndarray
+    n: np.ndarray
+
+
+def contacts_seen(m) -> list[ContactSeen]:
+    """The contacts the last step found (its last detection round): the wall's and each body's
+    partners j > i. The narrow phase alone writes these columns, so after a step they hold the
+    contacts its impulse pass used (a step with one detection round)."""
+    from .physics.columns import Body, BodyInt, Contact, Param
+
+    a = m.arrays
+    b, bi, cd, cp = a.b.to_numpy(), a.bi.to_numpy(), a.cd.to_numpy(), a.cp.to_numpy()
+    wall_x = float(a.par.to_numpy()[Param.WALL_X])
+    seen = []
+    for i in range(b.shape[0]):
+        if m.fx.wall and bi[i, BodyInt.WALL_ON]:
+            seen.append(ContactSeen(i, -1, np.array([wall_x, b[i, Body.WALL_PZ]]), np.array([1.0, 0.0])))
+        for s in range(bi[i, BodyInt.NCONTACT] if m.fx.collisions else 0):
+            p = np.array([cd[s, i, Contact.PX], cd[s, i, Contact.PZ]])
+            seen.append(ContactSeen(i, int(cp[s, i]), p, np.array([cd[s, i, Contact.NX], cd[s, i, Contact.NZ]])))
+    return seen
+
+
+# ---------------------------------------------------------------- the contact law, again
+def cross(r: np.ndarray, d: np.ndarray) -> float:
+    return float(r[0] * d[1] - r[1] * d[0])
+
+
+def contact_matrix(n: np.ndarray, arms: Iterable[tuple[np.ndarray, float, float]]) -> np.ndarray:
+    """``K``, the 2x2 effective-mass matrix of a contact point in the frame ``(n, t)``,
+    ``t = (-n_z, n_x)``: ``K_ab = sum_k 1/m_k (a . b) + (r_k x a)(r_k x b) / I_k`` over the
+    bodies ``(arm r_k, mass m_k, inertia I_k)`` of the contact (one for the wall)."""
+    t = np.array([-n[1], n[0]])
+    frame = (n, t)
+    k = np.zeros((2, 2))
+    for r, mass, inertia in arms:
+        for x in range(2):
+            for y in range(2):
+                k[x, y] += float(frame[x] @ frame[y]) / mass + cross(r, frame[x]) * cross(r, frame[y]) / inertia
+    return k
+
+
+def coulomb_impulse(k: np.ndarray, vn: float, vt: float, e: float, mu: float) -> tuple[float, float, str]:
+    """``(J_n, J_t, regime)``: Newton's restitution with Coulomb friction at a contact point
+    whose relative velocity ``(v_n, v_t)`` (approaching: ``v_n < 0``) changes by ``K J``.
+
+    Stick: the impulse giving ``v_n' = -e v_n`` and ``v_t' = 0``, if ``|J_t| <= mu J_n``.
+    Else slide on the cone's edge on the stick impulse's side, ``J_t = s mu J_n``, with
+    ``J_n`` again from ``v_n' = -e v_n``."""
+    jn, jt = np.linalg.solve(k, [-(1.0 + e) * vn, -vt])
+    if abs(jt) <= mu * jn:
+        return float(jn), float(jt), "stick"
+    side = float(np.sign(jt))
+    jn = -(1.0 + e) * vn / (k[0, 0] + side * mu * k[0, 1])
+    return float(jn), float(side * mu * jn), "slide"
