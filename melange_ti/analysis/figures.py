@@ -4,7 +4,11 @@ Runs are grouped by the scene keys whose values differ between them (``contacts.
 ``shelf.thickness_std``, ...; the seed, the duration and the output schedule never make a
 group, see :data:`melange_ti.analysis.stats.NON_PARAMETER_KEYS`). Each group is one curve:
 the ensemble mean with a band (or error bars) of one standard deviation over its runs, on
-the time grid of the group's run that ends first.
+the time grid of the group's run that ends first. A curve's label names the group's value of
+every key that differs between the runs (a key only some runs have, such as an effect's
+``physics.form_drag``, included; :func:`melange_ti.analysis.runs.make_groups`); a single
+run's label names its scene and every value it changed from the defaults (the bundled paper
+scene): ``paper, shelf.count = 10``.
 
 Axes are non-dimensional (widths ``w``, time ``sqrt(w/g)``, energy ``rho_w g w^3`` and force
 ``rho_w g w^2`` per unit length of ice front) with a second axis in physical units for an
@@ -12,7 +16,8 @@ iceberg ``--width-m`` metres wide (time unit ``sqrt(width_m / 9.81)`` s, ``rho_w
 
 Files written to ``--out`` (each figure as PNG and PDF):
 
-- ``fig2_snapshots``: icebergs with their discs near the leading edge at chosen times
+- ``fig2_snapshots``: icebergs with their discs near the leading edge at chosen times, one
+  column per group (its first run; every group is drawn)
 - ``fig3_capsized_fraction``: fraction capsized (``phi >= pi/4``) vs time
 - ``fig4_leading_edge``: leading edge vs time
 - ``fig5_capsized_by_position``: fraction capsized in bins of 10 widths, at several times
@@ -27,8 +32,10 @@ from __future__ import annotations
 
 import csv
 import math
+import textwrap
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
+from itertools import takewhile
 from pathlib import Path
 
 import matplotlib
@@ -242,11 +249,10 @@ def fig_capsized_by_position(groups: Sequence[Group], units: Units, times: Seque
     return fig
 
 
-def fig_snapshots(
-    groups: Sequence[Group], units: Units, times: Sequence[float], span: float = SNAPSHOT_SPAN, max_groups: int = 3
-):
-    """Paper Fig. 2: icebergs and their discs near the leading edge at ``times`` (first run of each group)."""
-    shown = list(groups)[:max_groups]
+def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float], span: float = SNAPSHOT_SPAN):
+    """Paper Fig. 2: icebergs and their discs near the leading edge at ``times``, one column
+    per group (its first run): every group, the columns narrower from the fourth on."""
+    shown = list(groups)
     windows = []
     zlo, zhi = math.inf, -math.inf
     for g in shown:
@@ -266,7 +272,7 @@ def fig_snapshots(
     nrow, ncol = len(times), len(shown)
     width_w = max(c[3] - c[2] for col in windows for c in col)
     zlo, zhi = min(zlo, 0.0) - 0.4, max(zhi, 0.0) + 0.4
-    panel_w = 10.0 if ncol == 1 else 6.0
+    panel_w = 10.0 if ncol == 1 else min(6.0, max(18.0 / ncol, 3.5))  # 6 in up to three groups
     panel_h = max(1.0, panel_w * (zhi - zlo) / width_w)
     fig, axes = plt.subplots(
         nrow, ncol, figsize=(panel_w * ncol + 1.0, panel_h * nrow + 1.4), squeeze=False, layout="constrained"
@@ -288,7 +294,8 @@ def fig_snapshots(
             ax.set_ylabel("z (widths)", fontsize=8)
             ax.tick_params(labelsize=7)
             if row == 0:
-                ax.set_title(f"{g.label}, seed {r.seed} ({r.scene.contacts.discs} discs)", fontsize=9)
+                title = f"{g.label}, seed {r.seed} ({r.scene.contacts.discs} discs)"
+                ax.set_title(textwrap.fill(title, int(13 * panel_w)), fontsize=9)  # ~13 characters an inch
                 length_axis(ax, "x", units, x1, f"x for w = {units.width_m:g} m")
             if row == nrow - 1:
                 ax.set_xlabel("x (widths)")
@@ -384,11 +391,14 @@ def fig_impulse_wall(groups: Sequence[Group], units: Units):
 # Driver
 
 
-def save(fig, out: Path, name: str) -> list[Path]:
-    """Write ``name.png`` and ``name.pdf`` in ``out`` and close the figure."""
+def save(fig, out: Path, name: str, written: list[Path] | None = None) -> list[Path]:
+    """Write ``name.png`` and ``name.pdf`` in ``out`` and close the figure; each file is added
+    to ``written`` before it is written (so that a failed plot can remove it)."""
     paths = [out / f"{name}.png", out / f"{name}.pdf"]
     try:
         for p in paths:
+            if written is not None:
+                written.append(p)
             fig.savefig(p, dpi=DPI)
     except OSError as exc:
         raise OutputError(f"{p}: cannot write ({exc.strerror or exc})") from None
@@ -478,7 +488,9 @@ def plot(
     """Every figure (or only those in ``names``, see :data:`FIGURES`) for the given run files
     into directory ``out``, plus ``summary.csv``; returns the files written. ``width_m``:
     the iceberg width in metres for the physical axes (default: the first run's
-    ``scene.width_m``)."""
+    ``scene.width_m``). Every file is read and checked (:func:`load_run`: a NaN is one line)
+    before ``out`` is made; a plot that fails later removes the files it wrote and the
+    folders it made."""
     if width_m is not None and not (math.isfinite(width_m) and width_m > 0):
         raise SceneError(f"--width-m = {width_m:g}: must be a positive number of metres")
     wanted = set(FIGURES if names is None else names)
@@ -488,10 +500,26 @@ def plot(
     runs = [load_run(p) for p in paths]
     units = Units(width_m=width_m if width_m is not None else runs[0].scene.width_m)
     out = Path(out)
+    made = list(takewhile(lambda d: not d.exists(), (out, *out.parents)))  # innermost first
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OutputError(f"--out {str(out)!r}: cannot create directory ({exc.strerror or exc})") from None
+    written: list[Path] = []
+    try:
+        _plot(runs, out, units, times, wanted, written)
+    except BaseException:  # half a plot is no plot: leave --out as it was (bar what --overwrite replaced)
+        for p in written:
+            p.unlink(missing_ok=True)
+        for d in made:
+            if d.is_dir() and not any(d.iterdir()):
+                d.rmdir()
+        raise
+    return written
+
+
+def _plot(runs: list[Run], out: Path, units: Units, times, wanted: set[str], written: list[Path]) -> None:
+    """:func:`plot`'s figures, each file added to ``written`` before it is written."""
     fig2_times, fig5_times = default_times(last_snapshot_time(runs))
     if times is not None:
         check_times(times, runs)
@@ -512,12 +540,11 @@ def plot(
         makers["capsized_fraction_by_thickness_std"] = lambda: fig_capsized_fraction(
             make_groups(runs, keys=["shelf.thickness_std"]), units, title=title
         )
-    written: list[Path] = []
     for name, make in makers.items():
         if name in wanted:
-            written += save(make(), out, name)
-    written.append(write_summary(summary_rows(groups), out / "summary.csv"))
-    return written
+            save(make(), out, name, written)
+    written.append(out / "summary.csv")
+    write_summary(summary_rows(groups), out / "summary.csv")
 
 
 def run_files(args: Sequence[str | Path]) -> list[Path]:

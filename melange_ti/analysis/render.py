@@ -10,6 +10,7 @@ The movie is encoded by the ``ffmpeg`` binary shipped in the ``imageio-ffmpeg`` 
 from __future__ import annotations
 
 import math
+from itertools import takewhile
 from pathlib import Path
 
 import matplotlib
@@ -27,6 +28,7 @@ from ..errors import RunError  # noqa: E402
 from ..geometry import disc_local  # noqa: E402
 from ..io.hdf5 import OutputError, read_run  # noqa: E402
 from ..scene import Scene, SceneError, stored_scene  # noqa: E402
+from .runs import DRAWN, check_finite  # noqa: E402
 
 G_SI = 9.81  # m s^-2
 CMAP = "plasma"
@@ -199,6 +201,7 @@ def load_run(path: str | Path) -> tuple[dict, Scene]:
     for key in ("width", "thickness"):
         if key not in run["icebergs"]:
             raise OutputError(f"{path}: not a melange_ti run file (no /icebergs/{key})")
+    check_finite(path, run, DRAWN)
     return run, scene
 
 
@@ -336,7 +339,8 @@ def render(
     An existing movie, or a directory holding frames, is refused unless ``overwrite`` (then
     the old frames are removed first, so none of an earlier render is left). ``width_m``:
     the iceberg width in metres for the time label (default: the run's ``scene.width_m``).
-    Returns the files written.
+    Returns the files written. A render that fails (a NaN in the run is refused before
+    anything is written) leaves no movie, no frames and no directory of its own behind.
     """
     if every < 1:
         raise SceneError(f"--every = {every}: must be >= 1")
@@ -349,7 +353,8 @@ def render(
     if width_m is not None and not (math.isfinite(width_m) and width_m > 0):
         raise SceneError(f"--width-m = {width_m:g}: must be a positive number of metres")
     stale = sorted(out.glob("frame_*.png")) if not movie and out.is_dir() else []
-    if not overwrite and (movie and out.exists() or stale):
+    # an empty file is no movie (one left by a render that failed before its first frame)
+    if not overwrite and (movie and out.exists() and out.stat().st_size > 0 or stale):
         what = "file exists" if movie else f"holds {len(stale)} frames of an earlier render"
         raise RunError(f"--out {str(out)!r}: {what} (use --overwrite to replace, or another --out)")
     run, scene = load_run(path)
@@ -358,34 +363,46 @@ def render(
     for old in stale:
         old.unlink()
     writer = None
+    made = []  # the directories this render creates, innermost first
     if movie:
         writer = _movie_writer(out, fps)
     else:
+        made = list(takewhile(lambda d: not d.exists(), (out, *out.parents)))
         try:
             out.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise OutputError(f"--out {str(out)!r}: cannot create directory ({exc.strerror or exc})") from None
-    maker = FrameMaker(run, scene, discs, frames, width_m=width_m)
+    maker = None
     written: list[Path] = []
+    done = False
     try:
+        maker = FrameMaker(run, scene, discs, frames, width_m=width_m)
         for n, k in enumerate(frames):
             rgb = maker.draw(int(k))
             if writer is not None:
                 writer.write(rgb)
             else:
                 target = out / f"frame_{n:05d}.png"
+                written.append(target)
                 try:
                     plt.imsave(target, rgb)
                 except OSError as exc:
                     raise OutputError(f"{target}: cannot write ({exc.strerror or exc})") from None
-                written.append(target)
         if writer is not None:
             writer.close()
             written.append(out)
+        done = True
     finally:
-        maker.close()
+        if maker is not None:
+            maker.close()
         if writer is not None:
-            writer.abort()
+            writer.abort()  # a half-written movie is no movie
+        if not done:  # nor are half the frames: leave --out as it was
+            for target in written:
+                target.unlink(missing_ok=True)
+            for d in made:
+                if d.is_dir() and not any(d.iterdir()):
+                    d.rmdir()
     return written
 
 

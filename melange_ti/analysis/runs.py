@@ -7,12 +7,27 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from .. import diagnostics
 from ..io.hdf5 import OutputError, read_run
 from ..scene import Scene, SceneError, stored_scene
 from . import stats
 
 PAPER_FIG2_TIMES = (100.0, 200.0, 300.0, 400.0)
+
+# What the figures and the movie read: a NaN or inf in any of these stops them in one line
+# (check_finite) instead of deep in matplotlib. Every diagnostic feeds a curve or the budget.
+DRAWN = (
+    "snapshots/time",
+    "snapshots/x",
+    "snapshots/z",
+    "snapshots/theta",
+    "snapshots/eta",
+    "icebergs/width",
+    "icebergs/thickness",
+    "waves/x",
+)
 
 
 @dataclass
@@ -61,18 +76,58 @@ def load_run(path: str | Path) -> Run:
         raise OutputError(f"{path}: no snapshots yet (nothing to plot)")
     if len(data["diagnostics"]["time"]) == 0:
         raise OutputError(f"{path}: no diagnostics yet (nothing to plot)")
+    check_finite(path, data, (*DRAWN, *(f"diagnostics/{k}" for k in data["diagnostics"])))
     return Run(path=path, data=data, scene=scene, flat=stats.parameters(scene))
 
 
+def check_finite(path: str | Path, data: dict, names: Sequence[str]) -> None:
+    """One-line :class:`OutputError` naming the first of the datasets ``names`` ("group/name",
+    absent ones skipped) that holds a NaN or an infinity, and where: a corrupted file, or a
+    run the numerical guard stopped (its last snapshot holds the state that blew up)."""
+    for name in names:
+        group, key = name.split("/")
+        values = data.get(group, {}).get(key)
+        if values is None or values.dtype.kind not in "fc":
+            continue
+        bad = ~np.isfinite(values)
+        count = int(bad.sum())
+        if not count:
+            continue
+        first = np.unravel_index(int(np.argmax(bad)), values.shape)
+        at = f"{'NaN' if np.isnan(values[first]) else 'inf'} at "
+        if group in ("snapshots", "diagnostics"):
+            t = data[group].get("time")
+            at += f"{'snapshot' if group == 'snapshots' else 'row'} {first[0]}"
+            at += f" (t = {float(t[first[0]]):g})" if t is not None and np.isfinite(t[first[0]]) else ""
+            at += f", {'cell' if key == 'eta' else 'iceberg'} {first[1]}" if values.ndim == 2 else ""
+        else:
+            at += f"{'iceberg' if group == 'icebergs' else 'cell'} {first[0]}"
+        raise OutputError(
+            f"{path}: /{name} holds {count} non-finite value{'s' if count > 1 else ''} (first: {at}); "
+            "a corrupted file, or a run stopped by its numerical guard: nothing drawn"
+        )
+
+
 def make_groups(runs: Sequence[Run], keys: Sequence[str] | None = None) -> list[Group]:
-    """Group runs by ``keys`` (default: every parameter key whose value differs between them)."""
+    """Group runs by ``keys`` (default: every parameter key whose value differs between them).
+
+    A group's label names its value of each of those keys (:func:`stats.shown_values`); a
+    single run is labelled by its scene's name and the values it changed from the defaults
+    (:func:`stats.run_label`), several runs with nothing between them ``all runs``."""
     flats = [r.flat for r in runs]
     if keys is None:
         keys = stats.differing_keys(flats)
-    return [
-        Group(key=k, label=stats.group_label(k), runs=[runs[i] for i in idx])
-        for k, idx in stats.group_by_keys(flats, keys).items()
-    ]
+    # keys only some runs have, with one value among them (an effect's keys where one group has it)
+    partial = {k for k in keys if any(k not in f for f in flats) and len({repr(f[k]) for f in flats if k in f}) == 1}
+    groups = stats.group_by_keys(flats, keys)
+
+    def label(key: tuple) -> str:
+        if len(runs) == 1:
+            return stats.run_label(flats[0])
+        shown = stats.shown_values(key, partial)
+        return stats.group_label(shown if shown or not key else key)
+
+    return [Group(key=k, label=label(k), runs=[runs[i] for i in idx]) for k, idx in groups.items()]
 
 
 def parse_times(text: str | None) -> list[float] | None:

@@ -9,8 +9,9 @@ ends first (the common grid), by linear interpolation.
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -269,11 +270,50 @@ def parameters(scene) -> dict[str, object]:
 
 
 def differing_keys(scenes: Sequence[Mapping[str, object]], ignore: Iterable[str] = NON_PARAMETER_KEYS) -> list[str]:
-    """Keys of flattened scenes whose values are not the same in all of them that have the
-    key (sorted)."""
+    """Keys of flattened scenes whose values are not the same in all of them (sorted). A key
+    only some of them have (an effect's, ``physics.form_drag``) differs too: absent is a
+    value of its own, so that ``form_drag = 8`` next to runs without form drag is named."""
     ignore = set(ignore)
     keys = sorted({k for s in scenes for k in s} - ignore)
-    return [k for k in keys if len({repr(s[k]) for s in scenes if k in s}) > 1]
+    return [k for k in keys if len({repr(s[k]) if k in s else None for s in scenes}) > 1]
+
+
+@functools.cache
+def default_parameters() -> dict[str, object]:
+    """Every key's default (the bundled paper scene's values) as ``{"section.key": value}``,
+    with the keys of every effect; ``scene.effects`` is the paper's effects."""
+    from ..physics.effects import PAPER_EFFECTS, REGISTRY
+    from ..scene import loads
+
+    every = loads("", [("scene.effects", [e.name for e in REGISTRY])], geometry=False)
+    return {**flatten_scene(every.source), "scene.effects": PAPER_EFFECTS}
+
+
+def changed_parameters(flat: Mapping[str, object], ignore: Iterable[str] = NON_PARAMETER_KEYS) -> tuple:
+    """``((key, value), ...)``: the keys of a flattened scene (:func:`parameters`) whose values
+    are not their defaults (:func:`default_parameters`), ``scene.effects`` first; keys without
+    a default (``[[iceberg]]``, ``[start]``) and ``ignore`` left out."""
+    defaults = default_parameters()
+    ignore = set(ignore)
+    out = [(k, v) for k, v in flat.items() if k in defaults and k not in ignore and repr(v) != repr(defaults[k])]
+    return tuple(sorted(out, key=lambda kv: kv[0] != "scene.effects"))
+
+
+def run_label(flat: Mapping[str, object]) -> str:
+    """A single run's label: its scene's name and every value changed from the defaults,
+    ``"paper, physics.form_drag = 8, shelf.count = 10"``; ``"paper, defaults"`` if none."""
+    changed = changed_parameters(flat)
+    return f"{flat.get('scene.name', 'scene')}, {group_label(changed) if changed else 'defaults'}"
+
+
+def shown_values(group: tuple, partial: Collection[str]) -> tuple:
+    """The pairs of a group key a label names: not a key the group's runs lack (value None:
+    an effect they do not name), nor one of the ``partial`` keys (which only some runs have,
+    all with one value) at its default (``physics.wave_dx`` of the runs with waves, whose
+    effect the ``scene.effects`` value names already); ``scene.effects`` first."""
+    defaults = default_parameters()
+    shown = [(k, v) for k, v in group if v is not None and not (k in partial and repr(v) == repr(defaults.get(k)))]
+    return tuple(sorted(shown, key=lambda kv: kv[0] != "scene.effects"))
 
 
 def group_by_keys(scenes: Sequence[Mapping[str, object]], keys: Sequence[str]) -> dict[tuple, list[int]]:
@@ -304,7 +344,9 @@ def _effects_label(effects: tuple) -> str:
 
 
 def group_label(group: tuple) -> str:
-    """``(("contacts.discs", 12),)`` -> ``"contacts.discs = 12"``; ``()`` -> ``"all runs"``."""
+    """``(("contacts.discs", 12),)`` -> ``"contacts.discs = 12"``; ``()`` -> ``"all runs"`` (the
+    runs of one scene: :func:`melange_ti.analysis.runs.make_groups` labels a single run with
+    :func:`run_label`)."""
     if not group:
         return "all runs"
     parts = []
