@@ -13,7 +13,9 @@ Plan, validate, then run:
 2. ``DIR/ensemble.json`` lists every run (file, seed, overrides); it is rewritten at the
    end with each run's status.
 3. The runs go to Dask workers: a ``LocalCluster`` of spawned single-threaded worker
-   processes, or an existing cluster (``--scheduler``). A task receives the scene *text*,
+   processes, or an existing cluster (``--scheduler``, connected before anything is
+   written: one that does not answer within :data:`CONNECT_SECONDS` is a RunError, and DIR
+   is left as it was). A task receives the scene *text*,
    the overrides and the absolute output path (remote workers need DIR on a shared file
    system, but not the scene file), initialises Taichi in its own process with one thread
    and runs :class:`~melange_ti.simulation.Simulation`. Output is bit-identical to
@@ -29,6 +31,7 @@ import hashlib
 import io
 import itertools
 import json
+import logging
 import math
 import os
 import re
@@ -47,6 +50,7 @@ from . import scene as scn
 MANIFEST = "ensemble.json"
 EXIT_OK, EXIT_FAILED = 0, 3
 SEED_KEY = "time.seed"
+CONNECT_SECONDS = 5  # --scheduler: how long to wait for it (Dask's default: 30 s)
 
 
 # ---------------------------------------------------------------------------- planning
@@ -356,6 +360,31 @@ def _error_line(exc: BaseException) -> str:
     return f"{exc.__class__.__name__}: {text}" if text else exc.__class__.__name__
 
 
+def dask_setup(worker) -> None:
+    """Dask's preload hook, run in each local worker process as it starts: SIGINT ignored.
+    Ctrl-C at a terminal reaches every process of its group; a worker interrupted in the
+    middle of its own shutdown races its nanny's and both log tracebacks. The client alone
+    handles it (it closes the cluster; a run stopped there resumes from its checkpoint)."""
+    import signal
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _reachable(scheduler: str) -> None:
+    """Open and close a TCP connection to ``scheduler``: a refused port fails at once and a
+    silent host within :data:`CONNECT_SECONDS`, where Dask's client retries for 30 s."""
+    import socket
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    scheme, loc = parse_address(scheduler)
+    if scheme in ("tcp", "tls"):
+        host, port = parse_host_port(loc, 8786)  # Dask's default scheduler port
+        with socket.create_connection((host or "localhost", port), timeout=CONNECT_SECONDS):
+            pass
+
+
 @contextlib.contextmanager
 def _cluster(scheduler: str | None, workers: int):
     """A connected Client: to ``scheduler``, or to a LocalCluster of spawned processes."""
@@ -370,8 +399,9 @@ def _cluster(scheduler: str | None, workers: int):
         assert dask.config.get("distributed.worker.multiprocessing-method") == "spawn"
         if scheduler:
             try:
-                client = Client(scheduler)
-            except (OSError, TimeoutError, ValueError) as exc:
+                _reachable(scheduler)
+                client = Client(scheduler, timeout=CONNECT_SECONDS)
+            except Exception as exc:  # Dask raises anything from a peer that is not a scheduler
                 raise RunError(f"--scheduler {scheduler}: cannot connect ({_error_line(exc)})") from None
             try:
                 yield client, f"scheduler {scheduler}"
@@ -383,6 +413,11 @@ def _cluster(scheduler: str | None, workers: int):
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
+            # Dask's warnings are noise here: an interrupt's shutdown ("Worker process still
+            # alive after 4.0 seconds, killing", a cancelled task), an event loop blocked while a
+            # kernel holds the GIL. Failures are reported per run, and Dask's errors still print.
+            silence_logs=logging.ERROR,
+            preload=["melange_ti.ensemble"],  # dask_setup: the workers leave Ctrl-C to the client
             # No import banner; never Taichi's print buffer (see run_one).
             env={"ENABLE_TAICHI_HEADER_PRINT": "0", "TI_ENABLE_PYBUF": "0"},
         )
@@ -440,6 +475,11 @@ def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec], workers: int
                 bar.write(msg, file=sys.stderr)
             else:
                 print(msg, file=sys.stderr, flush=True)
+    except KeyboardInterrupt:
+        # Ctrl-C: what Dask logs while it shuts down (a nanny's traceback when its worker
+        # went first, a cancelled task) is no news; main() says how to resume, and ends the quiet
+        logging.disable(logging.CRITICAL)
+        raise
     finally:
         if bar is not None:
             bar.close()
@@ -448,11 +488,18 @@ def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec], workers: int
 
 
 def estimate(first: float, left: int, workers: int) -> str:
-    """The time the ``left`` runs should take on ``workers``, from the first run's ``first`` s."""
-    rounds = math.ceil(left / max(1, workers))
+    """The time the ``left`` runs should take on ``workers``, from the first run's ``first`` s.
+
+    The first round's other runs started with the first one and end about when it did; the
+    rest go ``workers`` at a time, ~``first`` s a round."""
+    running = min(left, max(1, workers) - 1)
+    rounds = math.ceil((left - running) / max(1, workers))
+    if rounds == 0:
+        return f"the other {left} started with it and should finish about now"
     total = rounds * first
     when = f"{total / 60:.0f} min" if total >= 120 else f"{total:.0f} s"
-    return f"the other {left} should take about {when} ({rounds} round{'s' if rounds != 1 else ''} of ~{first:.0f} s)"
+    now = f"{running} running now, then " if running else ""
+    return f"the other {left} should take about {when} ({now}{rounds} round{'s' if rounds != 1 else ''} of ~{first:.0f} s)"
 
 
 def _fmt(v: Any, spec: str) -> str:
@@ -509,38 +556,45 @@ def main(args) -> int:
 
         for precision in sorted({scn.loads(text, [*r.overrides, (SEED_KEY, 1)]).precision for r in runs}):
             runtime.probe(args.arch, precision)
+        if runtime.software_device(args.arch):
+            print(f"melange-ti: note: --arch {args.arch}: {runtime.software_note(args.arch)}", file=sys.stderr)
     if out_dir.exists():
         classify(out_dir, runs, resolved)
-    else:
-        try:
-            out_dir.mkdir(parents=True)
-        except OSError as exc:
-            raise RunError(f"--out {args.out}: cannot create directory ({_error_line(exc)})") from None
-
-    for r in runs:
-        if r.action == "skip":
-            r.status, r.summary = "skipped", _last_diagnostics(out_dir / r.file)
-    write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
     todo = [r for r in runs if r.action != "skip"]
     where = "nothing to run"
     try:
-        if todo:
-            workers = min(args.workers or os.cpu_count() or 1, len(todo))
-            skipped = len(runs) - len(todo)
-            print(
-                f"ensemble: {len(todo)} run{'s' if len(todo) != 1 else ''} to do"
-                + (f" ({skipped} already complete)" if skipped else "")
-                + f" into {out_dir}, on {args.scheduler or f'{workers} local worker' + ('s' if workers != 1 else '')}; "
-                "an estimate of the time follows the first run",
-                file=sys.stderr,
-                flush=True,
-            )
-            with _cluster(args.scheduler, workers) as (client, where):
+        with contextlib.ExitStack() as stack:
+            if todo and args.scheduler:  # connected first: an unreachable scheduler leaves nothing behind
+                client, where = stack.enter_context(_cluster(args.scheduler, 0))
+            if not out_dir.exists():
+                try:
+                    out_dir.mkdir(parents=True)
+                except OSError as exc:
+                    raise RunError(f"--out {args.out}: cannot create directory ({_error_line(exc)})") from None
+            for r in runs:
+                if r.action == "skip":
+                    r.status, r.summary = "skipped", _last_diagnostics(out_dir / r.file)
+            write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
+            if todo:
+                workers = min(args.workers or os.cpu_count() or 1, len(todo))
+                skipped = len(runs) - len(todo)
+                print(
+                    f"ensemble: {len(todo)} run{'s' if len(todo) != 1 else ''} to do"
+                    + (f" ({skipped} already complete)" if skipped else "")
+                    + f" into {out_dir}, on {args.scheduler or f'{workers} local worker' + ('s' if workers != 1 else '')}; "
+                    "an estimate of the time follows the first run",
+                    file=sys.stderr,
+                    flush=True,
+                )
                 if args.scheduler:
                     workers = max(1, len(client.scheduler_info().get("workers", {})))
+                else:
+                    client, where = stack.enter_context(_cluster(None, workers))
                 _run_all(client, text, out_dir, todo, workers, args.arch)
     except KeyboardInterrupt:
-        write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
+        logging.disable(logging.NOTSET)
+        if (out_dir / MANIFEST).exists():
+            write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
         print("melange-ti: interrupted; run the same command again to resume the unfinished runs", file=sys.stderr)
         return 130
     write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)

@@ -66,13 +66,18 @@ ARCHS = ("cpu", "gpu", "cuda", "vulkan")
 CPU_ARCHS = ("x64", "arm64")
 
 _probed: dict[tuple[str, str], str] = {}
+_software: dict[str, str] = {}  # arch -> name of the software device it runs on (a CPU posing as a GPU)
 
 
 def probe(arch: str, precision: str = "f64") -> str:
     """The backend ``--arch arch`` gets here (``"cuda"``, ``"vulkan"``, ...), found by
     starting Taichi on it in a child process and running one small kernel in
     ``precision``; :class:`ArchError` (one line) where there is no usable device, the driver
-    crashes, or the device cannot run ``precision`` (f64 on a device without it)."""
+    crashes, or the device cannot run ``precision`` (f64 on a device without it).
+
+    A Vulkan device of type CPU (Mesa's lavapipe: a CPU pretending to be a GPU, slower than
+    the CPU backend) is no GPU: ``"gpu"`` refuses it as it does a machine without one, and
+    ``"vulkan"`` takes it (:func:`software_device` names it, for a note)."""
     if (arch, precision) in _probed:
         return _probed[(arch, precision)]
     import subprocess
@@ -85,7 +90,7 @@ def probe(arch: str, precision: str = "f64") -> str:
         )
     except (OSError, subprocess.TimeoutExpired) as exc:
         raise ArchError(f"{flag}: could not probe for a device ({exc.__class__.__name__}); use --arch cpu") from None
-    lines = dict(line.split(" ", 1) for line in p.stdout.splitlines() if line.startswith(("BACKEND ", "KERNEL ")))
+    lines = dict(line.split(" ", 1) for line in p.stdout.splitlines() if line.startswith(("BACKEND ", "KERNEL ", "DEVICE ")))
     backend = lines.get("BACKEND", "").strip()
     if p.returncode < 0 or (p.returncode != 0 and not backend):
         why = f"signal {-p.returncode}" if p.returncode < 0 else f"status {p.returncode}"
@@ -94,12 +99,31 @@ def probe(arch: str, precision: str = "f64") -> str:
         raise ArchError(
             f"{flag}: no {'GPU' if arch == 'gpu' else arch} device on this machine (Taichi fell back to the CPU); use --arch cpu"
         )
+    kind, _, device = lines.get("DEVICE", "").strip().partition(" ")
+    if kind == "cpu" and arch == "gpu":
+        raise ArchError(
+            f"{flag}: no GPU on this machine: Taichi's Vulkan device, {device}, is a CPU in software, slower than the "
+            "CPU backend (--arch vulkan runs on it anyway); use --arch cpu"
+        )
     if p.returncode != 0 or lines.get("KERNEL", "").strip() != "ok":
         last = (p.stderr.strip().splitlines() or ["no message"])[-1][:160]
         hint = " (try --set scene.precision=f32)" if precision == "f64" else ""
         raise ArchError(f"{flag}: the {backend} device cannot run a {precision} kernel{hint}: {last}")
     _probed[(arch, precision)] = backend
+    if kind == "cpu":
+        _software[arch] = device
     return backend
+
+
+def software_device(arch: str) -> str | None:
+    """The name of the software device (a CPU posing as a GPU, e.g. ``"llvmpipe (LLVM ...)"``)
+    that ``arch`` was found to run on by :func:`probe`, or None (a GPU, the CPU, or not probed)."""
+    return _software.get(arch)
+
+
+def software_note(arch: str) -> str:
+    """One line on :func:`software_device` for the command line's note."""
+    return f"{_software[arch]} is a software device (a CPU posing as a GPU), slower than --arch cpu"
 
 
 def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", debug: bool = False) -> str:
