@@ -533,7 +533,7 @@ def blowup_scene(vz1: float = 0.0) -> str:
         {
             "scene": {"name": "blowup", "effects": ["gravity", "buoyancy"], "precision": "f64"},
             "physics": {"density_ratio": r},
-            "time": {"dt": 5.0, "duration": 5000.0},
+            "time": {"dt": 5.0, "duration": 5000.0, "allow_unstable": True},  # past the refusal (docs/model.md)
             "output": {"snapshot_interval": 50.0, "diagnostic_interval": 5.0, "checkpoint_interval": 500.0},
             "iceberg": [
                 {"x": 0.0, "z": -r * 10.0 + 5.0, "width": 10.0, "thickness": 10.0},

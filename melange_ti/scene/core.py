@@ -21,8 +21,8 @@ from ..physics.effects import NAMES as EFFECTS
 from ..physics.effects import PAPER_EFFECTS, Effects, Key
 from ..physics.effects import waves as waves_effect
 from . import keys as K
-from .errors import SceneError, error, one_line
-from .initial import Icebergs, check_geometry, from_run, generate_shelf
+from .errors import SceneError, error, fmt, one_line
+from .initial import Icebergs, check_geometry, check_time_step, from_run, generate_shelf
 from .toml import dumps_toml, parse_value
 
 
@@ -98,6 +98,26 @@ class Scene:
     def to_toml(self) -> str:
         """The resolved scene as TOML text (stored in every output file)."""
         return dumps_toml(self.source)
+
+    def warnings(self) -> list[str]:
+        """What the icebergs miss to float, said in one line (``check`` and ``run`` print it):
+        a scene without gravity or buoyancy is legitimate (a free fall, a drag decay) but is
+        far more often a ``--set scene.effects=waves`` that meant ``scene.effects+=waves``."""
+        names = self.effects.names()
+        missing = [e for e in ("gravity", "buoyancy") if not getattr(self.effects, e)]
+        if not missing:
+            return []
+        what = {
+            ("gravity",): "nothing pulls the icebergs down: they rise out of the water",
+            ("buoyancy",): "nothing holds the icebergs up: they sink",
+            ("gravity", "buoyancy"): "the icebergs neither fall nor float, and no potential energy is released",
+        }[tuple(missing)]
+        if not names:
+            what = "nothing acts on the icebergs but their initial velocities"
+        return [
+            f"scene.effects = {names} has no {' and no '.join(missing)}: {what}; to add an effect to the scene's "
+            "list instead of replacing it: --set scene.effects+=NAME"
+        ]
 
     def notes(self) -> list[str]:
         """Values the run rounds to whole steps, each said in one line."""
@@ -226,7 +246,54 @@ def _whole_steps(key: str, value: float, dt: float) -> None:
         raise error(key, value, f"rounds to 0 steps of time.dt = {dt:g}; use at least {dt:g}")
 
 
+def _names(key: str, value: Any) -> list:
+    """A list key's value given as a bare ``a,b,c`` (as ``--set contacts.discs=12,28,60`` lists
+    values) or as a list; an empty ``--set scene.effects=`` is refused (``[]`` says it meant it)."""
+    if isinstance(value, str):
+        value = [v.strip() for v in value.split(",") if v.strip()]
+        if not value:
+            raise error(key, "", "names nothing; write [] for an empty list")
+    return value
+
+
+def _edit_list(doc: dict, key: str, value: Any) -> None:
+    """``KEY+=VALUE`` / ``KEY-=VALUE`` (override key ``KEY+`` / ``KEY-``): add names to a list key
+    or remove them, starting from the scene's list (or the default), order kept, none twice."""
+    op, key = key[-1], key[:-1].strip()
+
+    def bad(v: Any, why: str) -> SceneError:
+        return SceneError(f"{one_line(key)} {op}= {fmt(v)}: {one_line(why)}")
+
+    section, _, name = key.partition(".")
+    known = next((k for k in K.SECTIONS.get(section, ()) if k.name == name), None)
+    if known is None or not isinstance(known.default, list):
+        lists = ", ".join(f"{s}.{k.name}" for s, ks in K.SECTIONS.items() for k in ks if isinstance(k.default, list))
+        raise bad(value, f"+= and -= add to or remove from a list key ({lists}); use {key}=VALUE")
+    table = doc.setdefault(section, {})
+    if not isinstance(table, dict):
+        raise error(section, table, "must be a table")
+    current = table.get(name, list(known.default))
+    if not isinstance(current, list):
+        raise error(key, current, "must be a list")
+    names = [v.strip() for v in value.split(",") if v.strip()] if isinstance(value, str) else value
+    if not names or not isinstance(names, list) or not all(isinstance(v, str) for v in names):
+        raise bad(value, "must be a name or a list of names (e.g. waves or waves,friction)")
+    if key == "scene.effects":
+        for e in names:
+            if e not in EFFECTS:
+                raise bad(e, f"unknown effect (known: {', '.join(EFFECTS)})")
+    if op == "+":
+        table[name] = current + [v for k, v in enumerate(names) if v not in current and v not in names[:k]]
+        return
+    table[name] = [v for v in current if v not in names]
+    if not table[name] and current:
+        raise bad(value, f"removes every entry of {key} = {current}; write {key}=[] to mean none")
+
+
 def _set_path(doc: dict, key: str, value: Any) -> None:
+    if key[-1:] in ("+", "-"):
+        _edit_list(doc, key, value)
+        return
     parts = key.split(".")
     if len(parts) != 2 or not all(parts):
         raise error(key, value, "--set needs SECTION.KEY=VALUE (e.g. time.dt=0.005)")
@@ -239,14 +306,14 @@ def _set_path(doc: dict, key: str, value: Any) -> None:
     if not isinstance(table, dict):
         raise error(section, table, "must be a table")
     known = next((k for k in K.SECTIONS[section] if k.name == name), None)
-    if known is not None and isinstance(known.default, list) and isinstance(value, str):
-        # a list key given as a bare a,b,c (as --set contacts.discs=12,28,60 lists values)
-        value = [v.strip() for v in value.split(",") if v.strip()]
+    if known is not None and isinstance(known.default, list):
+        value = _names(key, value)
     table[name] = value
 
 
 def parse_overrides(items: list[str] | None) -> list[tuple[str, Any]]:
-    """``["time.dt=0.005", ...]`` -> ``[("time.dt", 0.005), ...]``."""
+    """``["time.dt=0.005", ...]`` -> ``[("time.dt", 0.005), ...]``; ``scene.effects+=waves``
+    (``-=``) -> ``("scene.effects+", "waves")``, the key written before ``=``."""
     out = []
     for item in items or []:
         if "=" not in item:
@@ -280,9 +347,6 @@ def from_dict(
         raise error(given[1].strip("[]"), given[1], f"give one of [shelf], [[iceberg]] or [start], not {' and '.join(given)}")
     shelf = parts["shelf"] if table is None and start is None else None
     time = parts["time"]
-    _whole_steps("time.duration", time.duration, time.dt)
-    for key in INTERVALS:
-        _whole_steps(key, getattr(parts["output"], key.split(".")[1]), time.dt)
     scene = Scene(
         **head,
         physics=parts["physics"],
@@ -293,12 +357,17 @@ def from_dict(
         iceberg_table=table,
         start=start,
     )
+    # the time step's stability first: a dt far too large is not blamed on an interval
+    icebergs = check_time_step(scene) if geometry else None
+    _whole_steps("time.duration", time.duration, time.dt)
+    for key in INTERVALS:
+        _whole_steps(key, getattr(parts["output"], key.split(".")[1]), time.dt)
     if scene.effects.waves:
         bad = waves_effect.check(scene.physics, time.dt)
         if bad is not None:
             raise error(*bad)
     if geometry:
-        check_geometry(scene)
+        check_geometry(scene, icebergs)
     return scene
 
 

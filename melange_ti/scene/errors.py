@@ -9,7 +9,8 @@ class SceneError(ValueError):
     """A scene that cannot be run; the message is one line naming key and value."""
 
 
-def _fmt(value: Any) -> str:
+def fmt(value: Any) -> str:
+    """A value as an error message shows it: strings quoted, one line."""
     if isinstance(value, str):
         return repr(value)
     if isinstance(value, dict):
@@ -23,4 +24,4 @@ def one_line(text: str) -> str:
 
 
 def error(key: str, value: Any, why: str) -> SceneError:
-    return SceneError(f"{one_line(key)} = {_fmt(value)}: {one_line(why)}")
+    return SceneError(f"{one_line(key)} = {fmt(value)}: {one_line(why)}")

@@ -19,6 +19,7 @@ import numpy as np
 from ..geometry import disc_local
 from ..io.hdf5 import OutputError, SnapshotTimeError, last_snapshot
 from .errors import error
+from .keys import DT_SAFETY
 
 if TYPE_CHECKING:
     from .core import Scene
@@ -118,8 +119,48 @@ def _shelf_advice(scene: Scene, b: Icebergs, r: np.ndarray, wall: bool) -> str:
     return f"use shelf.gap >= {math.ceil(need * 1e4) / 1e4:g} (room for any tilt up to shelf.tilt) or a smaller shelf.tilt"
 
 
-def check_geometry(scene: Scene) -> None:
+def heave_omega(width: Any, thickness: Any, density_ratio: float) -> Any:
+    """Angular frequency of the stiffest hydrostatic oscillation of each iceberg: its heave
+    floating flat (the shorter side vertical, draft ``r b``), ``sqrt(g rho_w L / m) =
+    sqrt(g / (r b))`` with ``L`` the waterline length and ``m = r w h``. Upright heave is
+    slower, and so is roll in either position (docs/model.md, Time stepping)."""
+    return np.sqrt(1.0 / (density_ratio * np.minimum(width, thickness)))
+
+
+def time_step_limit(scene: Scene, icebergs: Icebergs | None = None) -> tuple[float, int] | None:
+    """The linear stability limit ``2 / omega`` of the kick-drift step for the scene's stiffest
+    iceberg, and which iceberg that is; ``None`` without buoyancy (nothing stiff)."""
+    if not scene.effects.buoyancy:
+        return None
+    b = icebergs if icebergs is not None else scene.icebergs()
+    omega = heave_omega(b.width, b.thickness, scene.physics.density_ratio)
+    i = int(np.argmax(omega))
+    return 2.0 / float(omega[i]), i
+
+
+def check_time_step(scene: Scene) -> Icebergs:
+    """Refuse a ``time.dt`` above :data:`DT_SAFETY` of the stability limit (unless
+    ``time.allow_unstable``); returns the initial state it built."""
     b = scene.icebergs()
+    limit = time_step_limit(scene, b)
+    dt = scene.time.dt
+    if limit is None or scene.time.allow_unstable or dt <= DT_SAFETY * limit[0]:
+        return b
+    ok = DT_SAFETY * limit[0]
+    shown = math.floor(ok / 10 ** math.floor(math.log10(ok) - 2)) * 10 ** math.floor(math.log10(ok) - 2)
+    raise error(
+        "time.dt",
+        dt,
+        f"above the stability limit 2/omega = {limit[0]:.3g} of iceberg {limit[1]}'s heave (omega = "
+        f"{2.0 / limit[0]:.3g}); use at most {shown:.3g} ({DT_SAFETY:g} of the limit: docs/model.md, Time stepping), "
+        "or time.allow_unstable = true to run it anyway",
+    )
+
+
+def check_geometry(scene: Scene, icebergs: Icebergs | None = None) -> None:
+    """Refuse a start with a non-finite pose or overlapping icebergs (``icebergs``: the
+    initial state if already built)."""
+    b = icebergs if icebergs is not None else scene.icebergs()
     for name in ("x", "z", "theta"):
         arr = getattr(b, name)
         if not np.all(np.isfinite(arr)):

@@ -15,6 +15,10 @@ from ..physics.effects import REGISTRY, Key
 # rho_ice / rho_water = 917 / 1025 rounded as the paper and SPEC give it (the default; the
 # regression hashes are pinned to this value)
 DENSITY_RATIO = 0.8946
+# The largest time step accepted, as a fraction of the linear stability limit 2 / omega of the
+# icebergs' stiffest hydrostatic oscillation (docs/model.md, Time stepping): real runs go
+# unstable from 0.37 of it (a lone undamped capsize), the paper scene from 0.62.
+DT_SAFETY = 0.3
 
 SCENE = (
     Key("name", "scene", "", "a name for the run; it starts the default output file's name (docs/scenes.md, Output name)"),
@@ -23,7 +27,11 @@ SCENE = (
         ["gravity", "buoyancy", "drag", "collisions", "wall"],
         "",
         "the physical terms simulated (see the effects table); an effect not named costs nothing. In TOML "
-        '`effects = ["gravity", "buoyancy", "drag"]`; on the command line `--set scene.effects=gravity,buoyancy,drag`',
+        '`effects = ["gravity", "buoyancy", "drag"]`; on the command line `--set scene.effects=gravity,buoyancy,drag` '
+        "replaces the list, `--set scene.effects+=waves` adds to it and `--set scene.effects-=drag` removes from it "
+        '(in Python `overrides={"scene.effects+": "waves"}`). A list without gravity or buoyancy (icebergs that '
+        "do not float) runs with a warning line, and so does an empty list written as `[]`; `--set scene.effects=` "
+        "with nothing after it, or a `-=` that removes every effect, is refused",
         None,
         f"must be a list of: {', '.join(e.name for e in REGISTRY)}",
     ),
@@ -82,7 +90,15 @@ CONTACTS = (
 )
 
 TIME = (
-    Key("dt", 0.01, "sqrt(w/g)", "time step (the paper's 0.01)", lambda v: v > 0.0, "must be > 0"),
+    Key(
+        "dt",
+        0.01,
+        "sqrt(w/g)",
+        f"time step (the paper's 0.01); one above {DT_SAFETY:g} of the icebergs' stability limit 2 / omega is refused "
+        f"({DT_SAFETY * 2.0 * math.sqrt(DENSITY_RATIO):.3f} for the paper's icebergs; docs/model.md, Time stepping)",
+        lambda v: v > 0.0,
+        "must be > 0",
+    ),
     Key(
         "duration",
         8000.0,
@@ -92,6 +108,15 @@ TIME = (
         "must be > 0",
     ),
     Key("seed", 1, "1", "seed of the random initial tilts", lambda v: 0 <= v < 2**63, "must be in [0, 2**63)"),
+    Key(
+        "allow_unstable",
+        False,
+        "",
+        "run a time step above the icebergs' stability limit, which is refused otherwise (docs/model.md, Time "
+        "stepping): for tests of the numerical guard and benchmarks that look for the limit",
+        None,
+        "must be true or false",
+    ),
 )
 
 OUTPUT = (
