@@ -12,7 +12,7 @@ exists, a resume that cannot continue), :class:`ArchError` (no usable backend),
 :class:`OutputError` (a file that cannot be written or read), :class:`NumericalError` and
 :class:`ContactOverflow` (a run stopped by a guard; its output up to there is kept),
 :class:`Interrupted` (Ctrl-C, a ``KeyboardInterrupt``: a checkpoint is written where the run
-stopped; ``resume=True`` continues it).
+stopped; ``resume=True`` continues it). :func:`extend` continues a run to a later time.
 """
 
 from __future__ import annotations
@@ -63,7 +63,9 @@ def run(
     The scene is validated again (a scene changed with :func:`dataclasses.replace` is checked
     like a file) and stored in the output exactly as run. Taichi is initialised on demand
     for ``arch``, ``threads`` and the scene's precision. An existing ``out`` is refused
-    unless ``overwrite``; ``resume`` continues an interrupted run from its checkpoint."""
+    unless ``overwrite``; ``resume`` continues an interrupted run from its checkpoint, with
+    ``scene`` equal to the stored one but for ``time.duration``: a later one extends the run,
+    finished or not (as :func:`extend`)."""
     from . import runtime
     from .simulation import Simulation
 
@@ -73,6 +75,20 @@ def run(
     )
     runtime.init(arch, threads, scene.precision)
     return sim.run()
+
+
+def extend(path: str | Path, duration: float, *, arch: str = "cpu", threads: int | None = None, progress: bool | None = False):
+    """Continue the run in ``path``, finished or stopped on the way, to the later time
+    ``duration`` with the scene stored in it, and return its :class:`RunSummary`. The file
+    grows bit for bit as if the run had gone to ``duration`` at once (from the checkpoint
+    ``path.ckpt`` that a finished run keeps for this); its ``scene_toml`` then holds the new
+    ``time.duration`` and its ``history`` says when it changed. Stopped on the way, the file
+    keeps what it held and ``run(..., resume=True)`` or ``extend`` again goes on."""
+    from . import scene as scn
+
+    stored = scn.stored_scene(path)
+    scene = scn.loads(stored.to_toml(), [("time.duration", duration)], geometry=False)
+    return run(scene, path, resume=True, arch=arch, threads=threads, progress=progress)
 
 
 _OPEN_ATTEMPTS = 20
@@ -173,6 +189,7 @@ __all__ = [
     "RunError",
     "Scene",
     "SceneError",
+    "extend",
     "load_scene",
     "open_run",
     "run",

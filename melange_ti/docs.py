@@ -267,6 +267,7 @@ def api_page() -> str:
         "",
         'scene = mt.load_scene("runs/paper.toml", overrides={"shelf.count": 50})  # None: the paper scene',
         'summary = mt.run(scene, "out.h5")      # initialises Taichi itself; same checks and errors as the CLI',
+        'mt.extend("out.h5", 20000.0)           # the finished run goes on to t = 20000, as one run there',
         'tree = mt.open_run("out.h5")           # xarray.DataTree of the file (docs/output.md)',
         "```",
         "",
@@ -277,7 +278,7 @@ def api_page() -> str:
         "there is kept). A worked example: `examples/drag_sensitivity.py`.",
         "",
     ]
-    for name in ("load_scene", "run", "open_run", "validated"):
+    for name in ("load_scene", "run", "extend", "open_run", "validated"):
         fn = getattr(api, name)
         out += [f"## `melange_ti.{name}{inspect.signature(fn)}`", "", inspect.getdoc(fn), ""]
     out += ["## `RunSummary` (returned by `run`)", "", inspect.getdoc(RunSummary), "", "| field | meaning |", "| --- | --- |"]

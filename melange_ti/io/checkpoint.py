@@ -2,7 +2,8 @@
 
 A checkpoint is an ``.npz`` file beside the run file (``RUN.h5.ckpt``), written to a
 temporary name, fsynced, then renamed over the previous one, so a kill at any moment leaves
-either the old or the new checkpoint, never a torn one.
+either the old or the new checkpoint, never a torn one. A finished run keeps the one at its
+end: from it the run can be extended to a later time (docs/reliability.md).
 """
 
 from __future__ import annotations
