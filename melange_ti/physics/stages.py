@@ -208,12 +208,12 @@ CORRECTION = Stage(
 )
 
 # the waves effect: phi's kick with the icebergs', and after they moved the grid's step
-# (what they displaced, eta += dt G phi, the absorbing layer in cell order): physics/waves.py
+# (what they displaced, eta += dt G phi, the absorbing layer: every part parallel): physics/waves.py
 WAVE_KICK = Stage("wave_kick", waves.kick_grid, (Part(waves.kick_grid),), needs=has_waves)
 WAVES = Stage(
     "waves",
     waves.waves_serial,
-    (Part(waves.update), Part(waves.sponge, sequential=True), Part(waves.pressure_surface)),
+    (Part(waves.update), Part(waves.sponge), Part(waves.pressure_surface)),
     needs=has_waves,
 )
 
@@ -318,11 +318,10 @@ def run_part(
 @ti.kernel
 def wave_refresh(cfg: arr, wv: arr):
     """``GPHI = G PHI`` and ``ETA_P = A ETA`` after the host set the wave grid (the step
-    keeps them current)."""
+    keeps them current); every loop parallel, as the step's (on a device a loop over the
+    grid on one thread would stop at the driver's cap)."""
     a = ti.static(Arrays(None, None, None, None, None, None, None, None, None, cfg, None, None, None, wv))
-    ti.loop_config(serialize=True)
-    for _ in range(1):
-        waves.refresh(a)
+    waves.refresh(a)
 
 
 @ti.kernel

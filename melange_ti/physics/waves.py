@@ -13,7 +13,7 @@ evaluates a trigonometric function.
 import taichi as ti
 
 from .columns import Acc, Body, Config, Param, Wave
-from .effects.waves import MAX_CELLS, SUB
+from .effects.waves import MAX_CELLS, SPONGE_Q, SUB
 from .numerics import FAR
 
 MAX_LOG = MAX_CELLS.bit_length()  # butterfly stages of the longest transform, 2 * MAX_CELLS
@@ -362,8 +362,8 @@ def apply_filters(
 @ti.func
 def refresh(a: ti.template()):
     """What the step keeps from the grid's state: ``G PHI`` and the surface at the depth of
-    the icebergs' pressure, ``ETA_P = A ETA`` (for a serial caller)."""
-    apply_filters(a, Wave.PHI, Wave.KT, Wave.GPHI, Wave.ETA, Wave.AT, Wave.ETA_P, False)
+    the icebergs' pressure, ``ETA_P = A ETA`` (at a kernel's top level: every loop parallel)."""
+    apply_filters(a, Wave.PHI, Wave.KT, Wave.GPHI, Wave.ETA, Wave.AT, Wave.ETA_P, True)
 
 
 @ti.func
@@ -406,21 +406,30 @@ def pressure_surface(fx: ti.template(), a: ti.template()):
 
 @ti.func
 def sponge(fx: ti.template(), a: ti.template()):
-    """The absorbing layer, ``eta <- eta / (1 + dt sigma)``, in cell order (one thread):
-    the energy it removes, ``rho g / 2 (eta^2 - eta'^2) dx`` per cell, summed in that order
-    into ``wave_absorbed``."""
+    """The absorbing layer, ``eta <- eta / (1 + dt sigma)``, each cell on its own (parallel:
+    no loop over the grid on one thread). The energy it removes, ``rho g / 2 (eta^2 - eta'^2)
+    dx`` per cell, is rounded to a multiple of ``SPONGE_Q`` and the cells' shares added with
+    atomics into ``red[0, 0]`` (f64 in any form; free after the correction): such sums are
+    exact, so the step's total does not depend on the order of the additions (the same bits
+    in every form, on any thread count and on a device); then one addition to
+    ``wave_absorbed``."""
     wv = ti.static(a.wv)
     dt = a.par[Param.DT]
     dx = a.par[Param.WAVE_DX]
-    removed = ti.cast(0.0, ti.f64)
+    for _ in range(1):
+        a.red[0, 0] = ti.cast(0.0, ti.f64)
     for j in range(_cells(a)):
         sig = wv[j, Wave.SPONGE]
         if sig > 0:
             e = wv[j, Wave.ETA]
             en = e / (1.0 + dt * sig)
-            removed += 0.5 * (e * e - en * en) * dx
+            removed = ti.cast(0.5 * (e * e - en * en) * dx, ti.f64)
+            share = ti.floor(removed / SPONGE_Q + 0.5) * SPONGE_Q
+            if share != 0:
+                ti.atomic_add(a.red[0, 0], share)
             wv[j, Wave.ETA] = en
-    a.acc[Acc.WAVE_ABSORBED] += removed
+    for _ in range(1):
+        a.acc[Acc.WAVE_ABSORBED] += a.red[0, 0]
 
 
 @ti.func

@@ -39,7 +39,9 @@ their energy is booked in ``correction_work`` with the still-water potential ene
 ``eta`` takes ``dt G phi`` and the displaced water: symplectic Euler for the whole system.
 What each iceberg displaces is added to the cells with exact sums (rounded to a multiple of
 ``WAVE_Q`` first), so the result does not depend on the order of the additions: the same
-bits in both forms and on any thread count.
+bits in both forms and on any thread count. The absorbing layer's energy is summed the same
+way (each cell's share rounded to a multiple of ``SPONGE_Q``), so it too is a parallel loop
+over the cells.
 """
 
 import math
@@ -50,6 +52,9 @@ from .base import Effect, Key
 SUB = 2  # sample points per grid cell for the coupling integrals
 SPONGE_RATE = 0.5  # largest relaxation rate of the absorbing layer, 1 / sqrt(w/g)
 MAX_CELLS = 1 << 16  # largest wave grid (cells)
+# what the absorbing layer removes from each cell is rounded to a multiple of this (E) before the
+# cells' shares are added up in any order: exact while a step's total stays below 2^53 of them (8 E)
+SPONGE_Q = 2.0**-50
 
 EFFECT = Effect(
     name="waves",
