@@ -22,7 +22,14 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _common_run_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--set", action="append", metavar="KEY=VALUE", default=[], help="override a scene key, e.g. time.dt=0.005")
+    p.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        default=[],
+        help="override a scene key, e.g. time.dt=0.005; scene.effects+=waves adds an effect to the scene's list, "
+        "scene.effects-=drag removes one (scene.effects=... replaces the whole list)",
+    )
     p.add_argument(
         "--arch",
         choices=("cpu", "gpu", "cuda", "vulkan"),
@@ -51,7 +58,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     r.add_argument(
-        "--resume", action="store_true", help="continue an interrupted run from its checkpoint, with the scene stored in --out"
+        "--resume",
+        action="store_true",
+        help="continue an interrupted run from its checkpoint, with the scene stored in --out; with --set "
+        "time.duration=LATER, extend a run (finished or not) to that time: the file grows as if it had run there at once",
     )
     r.add_argument(
         "--threads",
@@ -64,7 +74,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("check", help="validate a scene without running it", description="Validate a scene; print what would run.")
     c.add_argument("scene", nargs="?", help=SCENE_HELP)
-    c.add_argument("--set", action="append", metavar="KEY=VALUE", default=[], help="override a scene key")
+    c.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        default=[],
+        help="override a scene key (scene.effects+=NAME / -=NAME add or remove one effect)",
+    )
 
     e = sub.add_parser("ensemble", help="seeds x parameter values on a Dask cluster, one file per run")
     e.add_argument("scene", nargs="?", help=SCENE_HELP)
@@ -77,7 +93,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--arch", choices=("cpu", "gpu", "cuda", "vulkan"), default="cpu", help="Taichi backend of every worker (as for run)"
     )
 
-    pl = sub.add_parser("plot", help="the paper's figures and the energy budget from run files")
+    pl = sub.add_parser(
+        "plot",
+        help="the paper's figures and the energy budget from run files",
+        description="The paper's figures 2-5, the energy budget and summary.csv from run files. Runs are grouped "
+        "by every scene key whose value differs between them (not the seed, duration or output schedule); every "
+        "group is drawn and its label names those values (a single run: its scene and the values changed from the "
+        "defaults). A NaN in a file is refused in one line (docs/validation.md).",
+    )
     pl.add_argument("runs", nargs="+", help="run files, or folders of them (e.g. the one ensemble wrote)")
     pl.add_argument("--out", required=True, help="output directory for PNG/PDF files")
     pl.add_argument("--overwrite", action="store_true", help="replace figures already in --out")
@@ -123,6 +146,8 @@ def _cmd_check(args) -> int:
         f"{name}: ok ({_plural(sc.icebergs().count, 'iceberg')}, effects {', '.join(sc.effects.names()) or 'none'}, "
         f"{_plural(sc.time.steps, 'step')} of dt = {sc.time.dt:g})"
     )
+    for warning in sc.warnings():
+        print(f"melange-ti: warning: {warning}", file=sys.stderr)
     for note in sc.notes():
         print(f"note: {note}")
     return 0
@@ -138,26 +163,31 @@ def default_out(sc, overrides: list[tuple[str, object]]) -> Path:
 
 
 def _resume_scene(args, overrides):
-    """With --resume the run file's own scene; SCENE and --set, if given, must match it."""
+    """With --resume the run file's own scene, and that scene as stored. --set applies to it
+    (or to SCENE, if given); the result must equal it but for time.duration, which may move the
+    end (a later one extends the run: docs/reliability.md)."""
     from . import scene
+    from .errors import RunError
+    from .simulation import EXTENDABLE, scene_changes
 
     if not args.out:
         raise scene.SceneError("--resume: give --out RUN.h5, the file to continue")
     out = Path(args.out)
     if not out.exists():
-        from .errors import RunError
-
         raise RunError(f"--resume: {out} does not exist")
     stored = scene.stored_scene(out)
-    if args.scene is not None or overrides:
-        given = scene.load(args.scene, overrides)
-        if given.to_toml() != stored.to_toml():
-            from .errors import RunError
-
-            raise RunError(
-                f"--resume: {out} was made by another scene than the one given; leave SCENE and --set out to use its own"
-            )
-    return stored
+    if args.scene is None and not overrides:
+        return stored, stored
+    given = (
+        scene.load(args.scene, overrides) if args.scene is not None else scene.loads(stored.to_toml(), overrides, geometry=False)
+    )
+    changed = [k for k in scene_changes(stored.to_toml(), given.to_toml()) if k != EXTENDABLE]
+    if changed:
+        raise RunError(
+            f"--resume: {out} was made by another scene than the one given ({', '.join(changed)} differ); leave SCENE "
+            f"and --set out to use its own (--set {EXTENDABLE}=LATER extends it)"
+        )
+    return given, stored
 
 
 def _finished(out: Path) -> bool:
@@ -173,16 +203,23 @@ def _cmd_run(args) -> int:
     if args.threads is not None and args.threads < 1:
         raise scene.SceneError(f"--threads = {args.threads}: must be >= 1")
     overrides = scene.parse_overrides(args.set)
-    sc = _resume_scene(args, overrides) if args.resume else scene.load(args.scene, overrides)
-    if args.resume and _finished(Path(args.out)):
-        print(f"{args.out}: the run has finished (t = {sc.time.duration:g}); nothing to resume")
+    sc, stored = _resume_scene(args, overrides) if args.resume else (scene.load(args.scene, overrides), None)
+    if args.resume and _finished(Path(args.out)) and sc.time.steps == stored.time.steps:
+        print(
+            f"{args.out}: the run has finished (t = {sc.time.duration:g}); nothing to resume "
+            "(--set time.duration=LATER extends it)"
+        )
         return 0
     out = Path(args.out) if args.out else default_out(sc, overrides)
     history = "melange-ti " + " ".join(sys.argv[1:])
     sim = Simulation(sc, out, overwrite=args.overwrite, resume=args.resume, arch=args.arch, mode=args.mode, history=history)
+    for warning in sc.warnings():
+        print(f"melange-ti: warning: {warning}", file=sys.stderr)
     for note in sc.notes():
         print(f"note: {note}")
     runtime.init(args.arch, args.threads, sc.precision)
+    if runtime.software_device(args.arch):
+        print(f"melange-ti: note: --arch {args.arch}: {runtime.software_note(args.arch)}", file=sys.stderr)
     summary = sim.run()
     for line in summary.lines():
         print(line)
@@ -203,7 +240,8 @@ def _cmd_devices(args) -> int:
                 why = str(exc).split(": ", 1)[-1]
         if works:
             backend = works[0][1]
-            print(f"{arch}: usable on Taichi's {backend} backend, {' and '.join(p for p, _ in works)}")
+            soft = f"; {runtime.software_note(arch)}" if runtime.software_device(arch) else ""
+            print(f"{arch}: usable on Taichi's {backend} backend, {' and '.join(p for p, _ in works)}{soft}")
         else:
             print(f"{arch}: not usable ({why})")
     return 0

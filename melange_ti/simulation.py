@@ -17,12 +17,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import tomllib
 
 from . import __version__
 from . import diagnostics as diag
 from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
-from .io.hdf5 import FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_run, scene_text
+from .io.hdf5 import COMPLETE_ATTR, FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_run, scene_text
 from .model import Model
 from .physics.schema import STATE_NAMES
 from .physics.stages import SAMPLE_NAMES
@@ -32,6 +33,9 @@ from .scene import Icebergs, Scene
 # at most this many, and this many bytes of samples
 BATCH_MAX = 64
 BATCH_BYTES = 32 << 20
+# A launch after the first two runs at most the steps this many wall seconds take at the pace of
+# the launch before, so Ctrl-C acts within about a second even on a slow device (Simulation.run)
+CHECK_SECONDS = 0.5
 
 # How a message names the output, overwriting and resuming: the command line's flags, or
 # the arguments of melange_ti.run (Simulation(interface=...))
@@ -39,6 +43,32 @@ SPELLINGS = {
     "cli": {"out": "--out", "overwrite": "--overwrite", "resume": "--resume"},
     "api": {"out": "out", "overwrite": "overwrite=True", "resume": "resume=True"},
 }
+
+
+# The one scene key a resume may change: the end, before or after the run's (an extension)
+EXTENDABLE = "time.duration"
+
+
+def scene_changes(old: str, new: str) -> list[str]:
+    """The keys (``section.key``; ``iceberg`` for the table list) whose values differ between
+    two resolved scene texts (:meth:`Scene.to_toml`)."""
+
+    def flat(text: str) -> dict:
+        out = {}
+        for section, table in tomllib.loads(text).items():
+            if isinstance(table, dict):
+                out.update({f"{section}.{k}": v for k, v in table.items()})
+            else:
+                out[section] = table
+        return out
+
+    a, b = flat(old), flat(new)
+    return sorted(k for k in a.keys() | b.keys() if k not in a or k not in b or a[k] != b[k])
+
+
+# The largest budget residual, as a fraction of the released energy, a run reports without a
+# warning: the paper scene's is 0.03% at dt = 0.01 and grows with dt (docs/model.md, Time stepping).
+RESIDUAL_TRUSTED = 0.01
 
 
 def _doc(text: str):
@@ -88,7 +118,22 @@ class RunSummary:
             f"energy: released (potential, E_p(0) - E_p(t)) {self.energy_released:.6g}; lost (E(0) - E(t)) "
             f"{self.energy_lost:.6g} = dissipated {self.dissipated:.6g} + residual {self.energy_residual:.3g} "
             f"({share})",
+            *self._untrusted(),
             f"output: {self.path} (ran on Taichi's {self.backend} backend)",
+        ]
+
+    def _untrusted(self) -> list[str]:
+        """A warning when the budget's residual, the integrator's error, is above
+        :data:`RESIDUAL_TRUSTED` of the released energy (0.03% on the paper scene at its dt)."""
+        released, residual = self.energy_released, self.energy_residual
+        if not released or abs(residual) <= RESIDUAL_TRUSTED * abs(released):  # a NaN residual warns too
+            return []
+        pct = 100.0 * residual / released
+        pct = f"{pct:.2g}" if abs(pct) < 10 else f"{pct:.0f}"
+        return [
+            f"warning: the energy budget's residual is {pct}% of the released energy (above "
+            f"{RESIDUAL_TRUSTED:.0%}): too large to trust these results; a smaller time.dt shrinks it "
+            "(docs/model.md, Time stepping)"
         ]
 
 
@@ -104,8 +149,8 @@ class _DeferredInterrupt:
     Python raises ``KeyboardInterrupt`` wherever the main thread happens to be, and where
     that is a garbage-collection or weakref callback it is printed and dropped ("Exception
     ignored in ...") and the run goes on. This handler only records the signal; the run
-    loop stops at its next output event (at most one snapshot interval later) and writes a
-    checkpoint there (:meth:`Simulation._interrupted`). Installed only in the main thread, and not where
+    loop stops after its launch (about ``CHECK_SECONDS`` of stepping, any backend) and writes
+    a checkpoint there (:meth:`Simulation._interrupted`). Installed only in the main thread, and not where
     SIGINT is ignored (e.g. under ``nohup``).
     """
 
@@ -185,7 +230,8 @@ class Diagnostics:
         tot = sim.totals  # fetched with the sample
         c = self.counters
         row = diag.row(diag.Event(t, s, tot, c, sim.x0_max))  # each field computed as diag.FIELDS declares
-        c.t, c.impulses, c.wall_impulse, c.impulse_sum = t, tot.impulses, tot.wall_impulse, tot.impulse_sum
+        if self.schedule(step):  # a row off the grid (at an end) leaves them: a run extended past it goes on as one run
+            c.t, c.impulses, c.wall_impulse, c.impulse_sum = t, tot.impulses, tot.wall_impulse, tot.impulse_sum
         self.last, self.last_step = row, step
         sim.writer.diagnostic(row)
 
@@ -240,11 +286,11 @@ class Snapshots:
 class Checkpoints:
     """Everything the next step depends on (:mod:`melange_ti.io.checkpoint`): the state and
     every ledger and counter the schema names, and the icebergs' sizes as the model was built
-    from them, so a resumed run is bit-identical and needs no ``[start]`` file. Not at the
-    last step (a finished run needs none)."""
+    from them, so a resumed run is bit-identical and needs no ``[start]`` file. Also at the
+    last step, and kept: a finished run can then be extended to a later time."""
 
     name = "checkpoints"
-    at_end = False
+    at_end = True
     from_sample = False  # reads the model itself (state, ledgers): a batch stops here (Simulation._batch)
 
     def __init__(self, schedule: IterationInterval, diagnostics: Diagnostics):
@@ -329,6 +375,7 @@ class Simulation:
         self.checkpoints = self.outputs[-1]
         self.totals = None  # the model's Totals, fetched with each event's sample
         self._check_paths()
+        self._ck = self._check_resume() if resume else None  # refused before anything is touched
 
     def _check_paths(self) -> None:
         out, say = self.out, self.say
@@ -355,7 +402,7 @@ class Simulation:
         from . import runtime
 
         self.backend = runtime.init(self.arch, None, scene.precision)  # on demand; keeps an earlier init of the same kind
-        ck = self._checkpoint() if self.resume else None
+        ck = self._ck
         self.bergs = scene.icebergs() if ck is None or "width" not in ck else self._resumed_icebergs(ck)
         self.model = model = Model(scene, self.bergs, mode=self.mode)
         start_step = 0
@@ -376,6 +423,11 @@ class Simulation:
             }
             if self.out.exists():
                 self.out.unlink()
+            if self.ckpt.exists():  # an earlier run's, which a resume of this one must not take
+                try:
+                    self.ckpt.unlink()
+                except OSError as exc:
+                    raise OutputError(f"{self.ckpt}: cannot remove an earlier run's checkpoint ({exc.strerror})") from None
             writer = RunWriter(self.out, attrs, model.constants(), dtype, wave_x=model.wave_x())
         self.writer = writer
         self.total_mass = float(model.constants()["mass"].sum())
@@ -398,24 +450,35 @@ class Simulation:
         try:
             if not self.resume:
                 self._events(0, first=True)
+            pace = None  # steps per wall second of the last launch
             while step < self.total:
                 if interrupt.requested:
                     self._interrupted(step)
                 stops = self._batch(step)
-                sampled = model.advance_sampled([b - a for a, b in zip((step, *stops[:-1]), stops, strict=True)])
+                cap = self._launch_cap(step, stops, pace)
+                launched = wallclock.perf_counter()
+                if stops[0] - step > cap:  # a part of the way to the next event: no output
+                    model.advance(cap)
+                    stops, sampled = [step + cap], None
+                else:
+                    stops = [s for s in stops if s - step <= cap]
+                    sampled = model.advance_sampled([b - a for a, b in zip((step, *stops[:-1]), stops, strict=True)])
+                if self.startup is not None:  # the first launch's pace is its compiling
+                    pace = (stops[-1] - step) / max(wallclock.perf_counter() - launched, 1e-9)
                 if self.startup is None:
                     self.startup = (wallclock.perf_counter() - t0, stops[-1] - step)
                     if stamp is not None:
                         with contextlib.suppress(OSError):  # a read-only cache: said again next time
                             stamp.parent.mkdir(parents=True, exist_ok=True)
                             stamp.touch()
-                for nxt, got in zip(stops, sampled, strict=True):
+                for nxt, got in zip(stops, sampled or [None], strict=True):
                     if bar is not None:
                         if step == start_step:
                             bar.set_description("running")
                         bar.update(nxt - step)
                     step = nxt
-                    self._events(step, sampled=got)
+                    if got is not None:
+                        self._events(step, sampled=got)
         except OutputError:
             writer.close()
             if not self.resume and writer.snapshots_written == 0:
@@ -429,12 +492,23 @@ class Simulation:
                 bar.close()
             writer.close(complete=step >= self.total)
         wall = wallclock.perf_counter() - t0
-        if step >= self.total and self.ckpt.exists():
-            self.ckpt.unlink()
         return self._summary(step - start_step, wall)
 
+    def _launch_cap(self, step: int, stops: list[int], pace: float | None) -> int:
+        """The most steps the next launch may take: ``CHECK_SECONDS`` at ``pace``, the steps
+        per wall second of the launch before. The first two launches (the first compiles the
+        kernels, or loads them: no pace) take one step each in the parallel form (a device,
+        or many icebergs: perhaps a few steps per second) and up to two events in the serial
+        form (the CPU: both of its kernels compile in the first, timed apart from the
+        stepping). Launches of any length give the same bits (:meth:`Model.advance_sampled`)."""
+        if pace is not None:
+            return max(1, int(pace * CHECK_SECONDS))
+        if self.model.mode != "serial":
+            return 1
+        return stops[min(1, len(stops) - 1)] - step
+
     def _interrupted(self, step: int) -> None:
-        """Ctrl-C: a checkpoint where the run stands (an output event), then stop saying so."""
+        """Ctrl-C: a checkpoint where the run stands, then stop saying so."""
         t = step * self.scene.time.dt
         self.checkpoints.write(self, step, t, None)
         if self.interface == "api":
@@ -488,13 +562,54 @@ class Simulation:
     def _checkpoint(self) -> dict:
         if not self.ckpt.exists():
             raise RunError(
-                f"{self.say['resume']}: no checkpoint {self.ckpt} (the run finished, or never started; "
-                f"use {self.say['overwrite']})"
+                f"{self.say['resume']}: no checkpoint {self.ckpt} (the run never started, its file was moved without "
+                f"it, or it finished under an earlier melange_ti, which kept none; use {self.say['overwrite']} to run it again)"
             )
         try:
             return checkpoint.load(self.ckpt)
         except ValueError as exc:
             raise RunError(f"--resume: checkpoint {self.ckpt} cannot be used: {exc}") from None
+
+    def _check_resume(self) -> dict:
+        """The checkpoint a resume continues from, checked before anything is touched: the
+        file's format, and the scene of the file and of the checkpoint equal to this one but
+        for ``time.duration``, which may move the end anywhere after the checkpoint: later
+        than a finished run's end, it extends the run (docs/reliability.md)."""
+        ck = self._checkpoint()
+        data = read_run(self.out)
+        version = int(data["attrs"].get("format_version", 1))
+        if version != FORMAT_VERSION:
+            raise RunError(
+                f"--resume: {self.out} is in run-file format {version}, this melange_ti writes {FORMAT_VERSION}: "
+                "continue the run with the version that began it, or start it again"
+            )
+        text = self.scene.to_toml()
+        stored = scene_text(self.out, data)
+        for was in (str(ck[SCENE_ATTR]), stored):
+            changed = [k for k in scene_changes(was, text) if k != EXTENDABLE]
+            if changed:
+                raise RunError(
+                    f"--resume: {self.out} was made by a different scene (or --set values: {', '.join(changed)} differ); "
+                    f"refusing to mix them (only {EXTENDABLE} may change, to move the end)"
+                )
+        step, dt = int(ck["step"]), self.scene.time.dt
+        finished = bool(data["attrs"].get(COMPLETE_ATTR, False))
+        # an end moved onto the checkpoint would lack the rows written at an end (stopped, or
+        # an extension stopped on the way had dropped them): refused like an earlier one
+        if step > self.total or (step == self.total and (finished or stored != text)):
+            same = step == self.total and stored == text
+            how = "nothing to resume" if same else f"{EXTENDABLE} = {self.scene.time.duration:g} is not later"
+            raise RunError(
+                f"{self.say['resume']}: {self.out} has run to t = {step * dt:g} (its checkpoint); {how}: a later "
+                f"{EXTENDABLE} extends it"
+            )
+        self._extension = None
+        if stored != text:  # the end moves: the file's scene and history say so
+            old = tomllib.loads(stored)["time"]["duration"]
+            line = f"{_utc_now()}: {EXTENDABLE} {old:g} -> {self.scene.time.duration:g} from t = {step * dt:g}: {self.history}"
+            history = str(data["attrs"].get("history", ""))
+            self._extension = {SCENE_ATTR: text, "history": f"{history}\n{line}" if history else line}
+        return ck
 
     @staticmethod
     def _resumed_icebergs(ck: dict) -> Icebergs:
@@ -504,24 +619,17 @@ class Simulation:
         return Icebergs(**state, width=ck["width"], thickness=ck["thickness"])
 
     def _reopen(self, model: Model, dtype, ck: dict):
-        data = read_run(self.out)
-        version = int(data["attrs"].get("format_version", 1))
-        if version != FORMAT_VERSION:
-            raise RunError(
-                f"--resume: {self.out} is in run-file format {version}, this melange_ti writes {FORMAT_VERSION}: "
-                "continue the run with the version that began it, or start it again"
-            )
-        text = self.scene.to_toml()
-        if str(ck[SCENE_ATTR]) != text:
-            raise RunError(f"--resume: {self.out} was made by a different scene (or --set values); refusing to mix them")
-        if scene_text(self.out, data) != text:
-            raise RunError(f"--resume: {self.out} was made by a different scene (or --set values); refusing to mix them")
         step = int(ck["step"])
         model.set_state({k[6:]: ck[k] for k in ck if k.startswith("state_")})
         model.set_accumulators({k[4:]: ck[k] for k in ck if k.startswith("acc_")})
         self.diagnostics.counters = _Counters.load(ck)
         self.x0_max, self.e0, self.p0 = float(ck["x0_max"]), float(ck["e0"]), float(ck["p0"])
-        writer = RunWriter(self.out, dtype=dtype, mode="r+", resume_time=step * self.scene.time.dt)
+        # The file is cut to the last time on a snapshot or diagnostic grid at or before the
+        # checkpoint: a row after it was written only because the run ended there, and a run
+        # that goes on (extended) has none. A checkpoint at the end keeps them: nothing is left to run.
+        rows = [o.schedule.steps for o in self.outputs if o.name in ("snapshots", "diagnostics")]
+        keep = (step if step == self.total else max(step // k * k for k in rows)) * self.scene.time.dt
+        writer = RunWriter(self.out, dtype=dtype, mode="r+", resume_time=keep, attrs=self._extension)
         return writer, step
 
     def _summary(self, steps: int, wall: float) -> RunSummary:

@@ -167,10 +167,12 @@ def test_overwrite_replaces_the_old_file(tiny_run):
     assert h5py.is_hdf5(out)
 
 
-def test_finished_run_leaves_only_its_file(tiny_run, tiny):
+def test_finished_run_leaves_its_file_and_last_checkpoint(tiny_run, tiny):
+    """The checkpoint at the end is kept, so the run can be extended (docs/reliability.md);
+    no temporary file is left."""
     proc, out = tiny_run
     assert proc.returncode == 0, proc.stderr
-    assert sorted(p.name for p in tiny.iterdir() if p.name.startswith("run.h5")) == ["run.h5"]
+    assert sorted(p.name for p in tiny.iterdir() if p.name.startswith("run.h5")) == ["run.h5", "run.h5.ckpt"]
 
 
 def test_file_attributes(run_file):

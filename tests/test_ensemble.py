@@ -169,7 +169,7 @@ def test_sweep_resume_overwrite_skip_and_identity(tiny, tmp_path, capsys):
     assert "total wall time" in captured.out
     # the plan before it starts, and an estimate once the first run is done
     assert f"ensemble: 4 runs to do into {out}, on 2 local workers" in captured.err, captured.err
-    assert "the other 3 should take about" in captured.err and "(2 rounds of ~" in captured.err, captured.err
+    assert "the other 3 should take about" in captured.err and "(1 running now, then 1 round of ~" in captured.err, captured.err
 
     manifest = json.loads((out / "ensemble.json").read_text())
     runs = {r["file"]: r for r in manifest["runs"]}
@@ -181,7 +181,7 @@ def test_sweep_resume_overwrite_skip_and_identity(tiny, tmp_path, capsys):
     for name, r in runs.items():
         assert r["status"] == "complete"
         path = out / name
-        assert not checkpoint_path(path).exists()
+        assert checkpoint_path(path).exists()  # kept at the end: the run can be extended
         with h5py.File(path, "r") as f:
             assert f.attrs["complete"] == True  # noqa: E712 (numpy bool)
             assert f.attrs["seed"] == r["seed"]

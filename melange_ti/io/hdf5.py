@@ -84,7 +84,8 @@ class RunWriter:
     """Appends snapshots and diagnostics to one HDF5 run file.
 
     ``mode="w"`` creates the file (refusing an existing one unless ``overwrite``);
-    ``mode="r+"`` reopens a file to resume it, truncated to ``resume_time``.
+    ``mode="r+"`` reopens a file to resume it, truncated to ``resume_time``, after setting
+    ``attrs`` (an extended run's scene and history).
     """
 
     def __init__(
@@ -105,6 +106,9 @@ class RunWriter:
                 self._create(attrs or {}, constants or {}, wave_x)
             else:
                 self.f = h5py.File(self.path, "r+", locking=False)
+                if attrs:  # first, with complete false: cut short, the file still says what it is
+                    self.f.attrs.update({**attrs, COMPLETE_ATTR: False})
+                    self.f.flush()
                 self._truncate(resume_time)
             self.f.flush()
         except (OSError, RuntimeError) as exc:
@@ -207,9 +211,10 @@ class RunWriter:
         except OSError:
             return
         if free < self._room:
+            # a new file without a snapshot holds nothing: Simulation.run removes it
+            kept = "the file holds everything up to the last write" if self._nsnap else "nothing was recorded: no file is left"
             raise OutputError(
-                f"{self.path}: no space left on device ({free >> 10} kB free, a write may need {self._room >> 10} kB); "
-                "the file holds everything up to the last write"
+                f"{self.path}: no space left on device ({free >> 10} kB free, a write may need {self._room >> 10} kB); {kept}"
             )
 
     def snapshot(self, t: float, state: dict[str, np.ndarray]) -> None:
