@@ -8,6 +8,7 @@ ledgers and energies to every output that is due.
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import os
 import sys
@@ -51,19 +52,27 @@ EXTENDABLE = "time.duration"
 
 def scene_changes(old: str, new: str) -> list[str]:
     """The keys (``section.key``; ``iceberg`` for the table list) whose values differ between
-    two resolved scene texts (:meth:`Scene.to_toml`)."""
+    two resolved scene texts (:meth:`Scene.to_toml`); a key one text lacks (written by a version
+    before the key existed) counts at its default."""
+    a, b, default = _flat(old), _flat(new), _default_keys()
+    return sorted(k for k in a.keys() | b.keys() if a.get(k, default.get(k)) != b.get(k, default.get(k)))
 
-    def flat(text: str) -> dict:
-        out = {}
-        for section, table in tomllib.loads(text).items():
-            if isinstance(table, dict):
-                out.update({f"{section}.{k}": v for k, v in table.items()})
-            else:
-                out[section] = table
-        return out
 
-    a, b = flat(old), flat(new)
-    return sorted(k for k in a.keys() | b.keys() if k not in a or k not in b or a[k] != b[k])
+def _flat(text: str) -> dict:
+    out = {}
+    for section, table in tomllib.loads(text).items():
+        if isinstance(table, dict):
+            out.update({f"{section}.{k}": v for k, v in table.items()})
+        else:
+            out[section] = table
+    return out
+
+
+@functools.cache
+def _default_keys() -> dict:
+    from . import scene as scn
+
+    return _flat(scn.load(None).to_toml())
 
 
 # The largest budget residual, as a fraction of the released energy, a run reports without a
@@ -124,9 +133,12 @@ class RunSummary:
 
     def _untrusted(self) -> list[str]:
         """A warning when the budget's residual, the integrator's error, is above
-        :data:`RESIDUAL_TRUSTED` of the released energy (0.03% on the paper scene at its dt)."""
+        :data:`RESIDUAL_TRUSTED` of the released energy (0.03% on the paper scene at its dt), or
+        of the energy dissipated where that is larger (a run that released little while its
+        ledgers booked much is not judged by the little)."""
         released, residual = self.energy_released, self.energy_residual
-        if not released or abs(residual) <= RESIDUAL_TRUSTED * abs(released):  # a NaN residual warns too
+        scale = max(abs(released), abs(self.dissipated))
+        if not released or abs(residual) <= RESIDUAL_TRUSTED * scale:  # a NaN residual warns too
             return []
         pct = 100.0 * residual / released
         pct = f"{pct:.2g}" if abs(pct) < 10 else f"{pct:.0f}"
@@ -421,13 +433,13 @@ class Simulation:
                 "precision": scene.precision,
                 "seed": scene.time.seed,
             }
-            if self.out.exists():
-                self.out.unlink()
-            if self.ckpt.exists():  # an earlier run's, which a resume of this one must not take
-                try:
+            if self.ckpt.exists():  # an earlier run's, which a resume of this one must not take; first,
+                try:  # so that a refusal here leaves the run file too
                     self.ckpt.unlink()
                 except OSError as exc:
                     raise OutputError(f"{self.ckpt}: cannot remove an earlier run's checkpoint ({exc.strerror})") from None
+            if self.out.exists():
+                self.out.unlink()
             writer = RunWriter(self.out, attrs, model.constants(), dtype, wave_x=model.wave_x())
         self.writer = writer
         self.total_mass = float(model.constants()["mass"].sum())
@@ -627,8 +639,14 @@ class Simulation:
         # The file is cut to the last time on a snapshot or diagnostic grid at or before the
         # checkpoint: a row after it was written only because the run ended there, and a run
         # that goes on (extended) has none. A checkpoint at the end keeps them: nothing is left to run.
-        rows = [o.schedule.steps for o in self.outputs if o.name in ("snapshots", "diagnostics")]
-        keep = (step if step == self.total else max(step // k * k for k in rows)) * self.scene.time.dt
+        # Each group is cut on its own grid: an end on the diagnostics' grid but not the snapshots'
+        # keeps its diagnostic row and drops its snapshot.
+        dt = self.scene.time.dt
+        keep = {
+            o.name: (step if step == self.total else step // o.schedule.steps * o.schedule.steps) * dt
+            for o in self.outputs
+            if o.name in ("snapshots", "diagnostics")
+        }
         writer = RunWriter(self.out, dtype=dtype, mode="r+", resume_time=keep, attrs=self._extension)
         return writer, step
 

@@ -122,6 +122,19 @@ def test_extend_twice_from_python_equals_one_long_run(runs):
     assert_same(path, long)
 
 
+def test_an_end_on_one_grid_only_keeps_that_grids_row(runs):
+    """Ended at t = 31 (on the diagnostics' grid, off the snapshots'), the extension drops the
+    end snapshot and keeps the end diagnostic row, as one long run has them."""
+    d, long = runs
+    path = d / "half.h5"
+    assert run("--out", str(path), *with_sets("time.duration=31.0")) == 0
+    first = datasets(path)
+    assert first["snapshots/time"][-1] == 31.0 and 31.0 not in long["snapshots/time"]
+    assert 31.0 in long["diagnostics/time"]
+    api.extend(path, T2)
+    assert_same(path, long)
+
+
 def test_an_interrupted_extension_keeps_the_file_and_goes_on(runs):
     """Stopped on the way (Ctrl-C here), the file still opens with every row up to the first
     end that a long run has, and says its new end; a plain resume then finishes it."""
@@ -227,3 +240,14 @@ def test_an_extension_stopped_before_its_first_checkpoint(runs, capsys):
     assert digests(d) == before
     assert run("--out", str(path), "--resume") == 0
     assert_same(path, long)
+
+
+def test_a_key_newer_than_the_stored_scene_counts_at_its_default():
+    """A run begun by an earlier version stored no ``time.allow_unstable``: resuming it is no
+    change of scene, unless the key is set to something other than its default."""
+    from melange_ti.simulation import scene_changes
+
+    text = scene.load(None).to_toml()
+    older = "\n".join(line for line in text.splitlines() if not line.startswith("allow_unstable"))
+    assert older != text and scene_changes(older, text) == []
+    assert scene_changes(older, text.replace("allow_unstable = false", "allow_unstable = true")) == ["time.allow_unstable"]

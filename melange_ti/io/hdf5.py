@@ -84,7 +84,8 @@ class RunWriter:
     """Appends snapshots and diagnostics to one HDF5 run file.
 
     ``mode="w"`` creates the file (refusing an existing one unless ``overwrite``);
-    ``mode="r+"`` reopens a file to resume it, truncated to ``resume_time``, after setting
+    ``mode="r+"`` reopens a file to resume it, truncated to ``resume_time`` (a time, or one
+    per group: ``{"snapshots": t_s, "diagnostics": t_d}``), after setting
     ``attrs`` (an extended run's scene and history).
     """
 
@@ -95,7 +96,7 @@ class RunWriter:
         constants: dict[str, np.ndarray] | None = None,
         dtype: type = np.float64,
         mode: str = "w",
-        resume_time: float | None = None,
+        resume_time: float | dict[str, float] | None = None,
         wave_x: np.ndarray | None = None,
     ):
         self.path = Path(path)
@@ -190,9 +191,11 @@ class RunWriter:
             ds.dims[0].attach_scale(dt_)
             ds.attrs.update(meta["diagnostics"][k])
 
-    def _truncate(self, t: float | None) -> None:
-        """Drop rows after time ``t`` (and any rows past the consistent length)."""
+    def _truncate(self, cut: float | dict[str, float] | None) -> None:
+        """Drop rows after time ``cut`` (a time per group if a dict), and any rows past the
+        consistent length."""
         for group in ("snapshots", "diagnostics"):
+            t = cut.get(group) if isinstance(cut, dict) else cut
             g = self.f[group]
             n = consistent_length(g)
             times = g["time"][:n]

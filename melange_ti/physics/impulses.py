@@ -4,7 +4,9 @@ Per contact with point p, unit normal n (from body j to body i) and arms r_k = p
 ``J = -(1 + e) (v_rel . n) / K`` with ``K = 1/m_i + 1/m_j + (r_i x n)^2/I_i + (r_j x n)^2/I_j``,
 applied only when the pair approaches and would touch within the step (speculative
 contacts); each impulse dissipates exactly ``0.5 (1 - e^2) (v_rel . n)^2 / K``
-(``Acc.COLLISION``). The wall is a partner of infinite mass (j < 0).
+(``Acc.COLLISION``). With the friction effect the law is :func:`coulomb`'s, one impulse with
+a tangential part, whose two ledgers are each part's work. The wall is a partner of infinite
+mass (j < 0).
 
 The pass is sequential in a fixed order: body i ascending, its wall contact first, then its
 partners j > i ascending; repeated ``contact_passes`` times (Gauss-Seidel). Then the
@@ -168,8 +170,11 @@ def coulomb(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, n
         b[j, Body.OM] -= (c2n * jn + c2t * jt) / i2
     vn_after = vn + knn * jn + knt * jt
     vt_after = vt + knt * jn + ktt * jt
+    collision = -0.5 * jn * (vn + vn_after)
+    if jt == 0.0:  # the frictionless impulse (mu = 0, or no sliding to stop): its ledger's bits too
+        collision = 0.5 * (1.0 - e * e) * vn * vn / knn
     kick_vt = relative_normal(a, i, j, Body.KICK_VX, Body.KICK_VZ, Body.KICK_OM, rx1, rz1, rx2, rz2, tx, tz)
-    return jn, -0.5 * jn * (vn + vn_after), -0.5 * jt * (vt + vt_after), 0.5 * jn * kick_vn + 0.5 * jt * kick_vt
+    return jn, collision, -0.5 * jt * (vt + vt_after), 0.5 * jn * kick_vn + 0.5 * jt * kick_vt
 
 
 @ti.func

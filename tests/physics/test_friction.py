@@ -97,19 +97,25 @@ def test_wall_impact_stick_and_slip_against_the_analytic_impulses(e, regime):
 
 
 def test_zero_friction_is_frictionless_and_no_effect_costs_no_column():
-    """mu = 0 gives the frictionless velocities; a scene without the effect allocates no
-    deferred friction column and books nothing."""
-    runs = {}
-    for friction in (None, 0.0):
-        m, sc = wall_model(0.5, friction)
-        m.set_state(approach_wall(sc, 0.7))
-        m.advance(20)
-        runs[friction] = (m.state(), m.totals(), m.arrays.cd.shape[-1])
-    (s0, t0, w0), (s1, t1, w1) = runs[None], runs[0.0]
-    for k in s0:
-        assert np.array_equal(s0[k], s1[k]), k
-    assert t0.impulses > 0 and t0.friction_dissipated == 0.0 and t1 == t0
-    assert w1 == w0 + 1
+    """mu = 0 gives the frictionless impulses and ledgers to the bit, centrally and at a tilted
+    block's corner (e = 0.3: values whose roundings differ between the two ways of writing the
+    impact's dissipation); a scene without the effect allocates no deferred friction column and
+    books nothing."""
+    for tilt in (0.0, 0.4):
+        runs = {}
+        for friction in (None, 0.0):
+            m, sc = wall_model(0.3, friction)
+            s = approach_wall(sc, 0.7)
+            s["theta"][0], s["vx"][0] = tilt, -1.1
+            s["x"][0] = WALL_X + corner_x(W, H, tilt) + 0.02
+            m.set_state(s)
+            m.advance(20)
+            runs[friction] = (m.state(), m.totals(), m.arrays.cd.shape[-1])
+        (s0, t0, w0), (s1, t1, w1) = runs[None], runs[0.0]
+        for k in s0:
+            assert np.array_equal(s0[k], s1[k]), k
+        assert t0.impulses > 0 and t0.friction_dissipated == 0.0 and t1 == t0, (tilt, t0, t1)
+        assert w1 == w0 + 1
 
 
 def pair_model(friction=MU):
