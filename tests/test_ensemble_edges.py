@@ -8,7 +8,6 @@ whose kernels other tests have compiled); the rest run in this process without a
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import signal
@@ -31,20 +30,24 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 # ---------------------------------------------------------------------------- the estimate
-@pytest.mark.parametrize("left, workers", [(23, 2), (3, 2), (3, 4), (7, 8), (5, 1), (23, 8), (9, 4)])
-def test_estimate_counts_the_runs_already_going(left, workers):
-    """When the first run ends, the other ``workers - 1`` of its round are nearly done too:
-    what is left is the remaining runs, ``workers`` at a time."""
-    first = 60.0
-    line = ensemble.estimate(first, left, workers)
-    later = left - min(left, workers - 1)  # runs not started yet
-    rounds = math.ceil(later / workers)
-    if rounds == 0:
-        assert "finish about now" in line, line
-        return
-    assert f"{rounds} round{'s' if rounds != 1 else ''} of ~60 s" in line, line
-    total = rounds * first
-    assert (f"about {total / 60:.0f} min" if total >= 120 else f"about {total:.0f} s") in line, line
+@pytest.mark.parametrize(
+    "left, workers, expect",
+    [
+        (23, 2, "about 11 min (1 running now, then 11 rounds of ~60 s)"),
+        (3, 2, "about 60 s (1 running now, then 1 round of ~60 s)"),
+        (3, 4, "finish about now"),
+        (7, 8, "finish about now"),
+        (5, 1, "about 5 min (5 rounds of ~60 s)"),
+        (23, 8, "about 2 min (7 running now, then 2 rounds of ~60 s)"),
+        (9, 4, "about 2 min (3 running now, then 2 rounds of ~60 s)"),
+    ],
+)
+def test_estimate_counts_the_runs_already_going(left, workers, expect):
+    """When the first run (60 s) ends, the other ``workers - 1`` of its round are nearly done
+    too: what is left is the remaining runs, ``workers`` at a time (worked out by hand: 23 left
+    on 2 workers is 1 running and 22 in 11 rounds)."""
+    line = ensemble.estimate(60.0, left, workers)
+    assert expect in line, line
 
 
 # ---------------------------------------------------------------------------- --scheduler
