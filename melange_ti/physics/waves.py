@@ -424,7 +424,7 @@ def sponge(fx: ti.template(), a: ti.template()):
             e = wv[j, Wave.ETA]
             en = e / (1.0 + dt * sig)
             removed = ti.cast(0.5 * (e * e - en * en) * dx, ti.f64)
-            share = ti.floor(removed / SPONGE_Q + 0.5) * SPONGE_Q
+            share = _quantize(removed, SPONGE_Q)
             if share != 0:
                 ti.atomic_add(a.red[0, 0], share)
             wv[j, Wave.ETA] = en
