@@ -22,7 +22,7 @@ os.environ.setdefault("TI_ENABLE_PYBUF", "0")
 
 __version__ = "0.2.0"
 
-_API = ("load_scene", "run", "extend", "open_run", "validated", "Scene")
+_API = ("load_scene", "run", "extend", "open_run", "validated", "total_energy", "runaway", "Scene")
 _ERRORS = ("SceneError", "RunError", "ArchError", "OutputError", "NumericalError", "ContactOverflow", "Interrupted")
 __all__ = [*_API, *_ERRORS, "__version__"]
 

@@ -23,6 +23,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from .energy import runaway, total_energy
 from .errors import ArchError, ContactOverflow, Interrupted, NumericalError, RunError
 from .io.hdf5 import OutputError
 from .scene import Scene, SceneError
@@ -193,5 +194,7 @@ __all__ = [
     "load_scene",
     "open_run",
     "run",
+    "runaway",
+    "total_energy",
     "validated",
 ]

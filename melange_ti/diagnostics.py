@@ -8,6 +8,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from .physics.effects import REGISTRY
 from .physics.schema import ACCUMULATORS, BODIES, ENERGY_LEDGERS, E
 
 
@@ -56,6 +57,18 @@ def _ledger_fields() -> tuple[Field, ...]:
     return tuple(field(name) for name in ENERGY_LEDGERS)
 
 
+def _held_fields() -> tuple[Field, ...]:
+    """Every energy an effect holds (its declaration's ``held``), part of ``E``: the value the
+    effect's sample gives, 0 in a run without the effect."""
+
+    def field(q) -> Field:
+        return Field(q.name, "f8", q.units, q.doc, lambda e: float(e.sample.get(q.name, 0.0)), q.since)
+
+    return tuple(field(q) for eff in REGISTRY for q in eff.held)
+
+
+HELD: tuple[str, ...] = tuple(q.name for eff in REGISTRY for q in eff.held)  # energies part of E beyond the icebergs'
+
 FIELDS: tuple[Field, ...] = (
     Field(
         "capsized_fraction",
@@ -79,14 +92,7 @@ FIELDS: tuple[Field, ...] = (
         "potential energy (gravity and buoyancy), summed over icebergs",
         lambda e: float(np.sum(e.sample["potential"])),
     ),
-    Field(
-        "wave_energy",
-        "f8",
-        E,
-        "energy of the waves, rho g / 2 int eta^2 dx + rho / 2 int phi G phi dx (0 without the waves effect)",
-        lambda e: float(e.sample.get("wave_energy", 0.0)),
-        since=5,
-    ),
+    *_held_fields(),
     *_ledger_fields(),
     Field(
         "contacts",

@@ -22,11 +22,11 @@ import tomllib
 
 from . import __version__
 from . import diagnostics as diag
+from .energy import runaway, total_energy
 from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
 from .io.hdf5 import COMPLETE_ATTR, FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_run, scene_text
 from .model import Model
-from .physics.schema import STATE_NAMES
 from .physics.stages import SAMPLE_NAMES
 from .scene import Icebergs, Scene
 
@@ -262,19 +262,8 @@ class Guard:
         self.schedule = None
 
     def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
-        bad = None
-        for name in STATE_NAMES:
-            nonfinite = np.flatnonzero(~np.isfinite(s[name]))
-            if nonfinite.size:
-                bad = f"iceberg {int(nonfinite[0])} has non-finite {name}"
-                break
         row = self.diagnostics.last if self.diagnostics.last_step == step else None
-        if bad is None and row is not None:
-            energy = row["kinetic_energy"] + row["potential_energy"] + row["wave_energy"]
-            rise = energy - sim.e0
-            if not math.isfinite(energy) or rise > sim.total_mass:
-                worst = int(np.argmax(s["kinetic"]))
-                bad = f"energy ran away (rose by {rise:.3g} > total mass {sim.total_mass:.3g}; fastest iceberg {worst})"
+        bad = runaway(s, total_energy(row) if row is not None else None, sim.e0, sim.total_mass)
         if bad is not None:
             sim.writer.snapshot(t, s)
             sim.writer.flush()
@@ -565,7 +554,7 @@ class Simulation:
         if first:
             self.x0_max = float(np.max(s["x"]))
             self.p0 = float(np.sum(s["potential"]))
-            self.e0 = float(np.sum(s["kinetic"])) + self.p0 + float(s.get("wave_energy", 0.0))
+            self.e0 = total_energy(s)
         for output in due:
             output.write(self, step, t, s)
         if self.on_event is not None:
@@ -652,7 +641,7 @@ class Simulation:
 
     def _summary(self, steps: int, wall: float) -> RunSummary:
         row = self.diagnostics.last or {}
-        energy = row.get("kinetic_energy", 0.0) + row.get("potential_energy", 0.0) + row.get("wave_energy", 0.0)
+        energy = total_energy(row) if row else 0.0
         lost = self.e0 - energy
         dissipated = sum(row.get(name, 0.0) for name in diag.ENERGY_LEDGERS)
         first_wall, first_steps = self.startup or (wall, steps)

@@ -47,6 +47,18 @@ def _positive(v) -> bool:
 
 
 @dataclass(frozen=True)
+class Quantity:
+    """A named value an effect gives at every output event (``held``: an energy it holds,
+    part of ``E``; a diagnostic of that name): units, meaning, and the run-file format
+    version that first holds it."""
+
+    name: str
+    units: str
+    doc: str
+    since: int = 1
+
+
+@dataclass(frozen=True)
 class Effect:
     """One physical term a scene may name in ``scene.effects``.
 
@@ -88,6 +100,7 @@ class Effect:
     torque: bool = False
     horizontal: bool = False
     beyond_paper: bool = False
+    held: tuple[Quantity, ...] = ()
 
     def __post_init__(self):
         unknown = set(self.terms) - set(TERMS)

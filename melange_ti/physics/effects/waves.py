@@ -47,7 +47,7 @@ over the cells.
 import math
 
 from ..columns import Column
-from .base import Effect, Key
+from .base import Effect, Key, Quantity
 
 SUB = 2  # sample points per grid cell for the coupling integrals
 SPONGE_RATE = 0.5  # largest relaxation rate of the absorbing layer, 1 / sqrt(w/g)
@@ -90,6 +90,14 @@ EFFECT = Effect(
     torque=True,
     horizontal=True,
     beyond_paper=True,
+    held=(
+        Quantity(
+            "wave_energy",
+            "rho_w g w^3",
+            "energy of the waves, rho g / 2 int eta^2 dx + rho / 2 int phi G phi dx (0 without the waves effect)",
+            since=5,
+        ),
+    ),
 )
 
 
