@@ -143,15 +143,16 @@ def _open_tree(xr, path: Path, complete: bool):
 def open_run(path: str | Path):
     """The run file ``path`` as an :class:`xarray.DataTree`: groups ``icebergs``,
     ``snapshots`` and ``diagnostics`` with named dimensions ``time`` and ``iceberg``, ``time``
-    as a coordinate, ``units`` and ``long_name`` on every variable; with the ``waves``
-    effect, ``snapshots.eta`` over dimension ``wave_cell`` has the cells' positions as the
-    coordinate ``wave_x``. A file still being
+    as a coordinate, ``units`` and ``long_name`` on every variable. What an effect declares
+    is there too (docs/output.md): its groups, and its snapshot variables over its own
+    dimensions, each dimension's declared coordinate attached to every group that has the
+    dimension (docs/output.md shows one plotted against it). A file still being
     written (or cut short by a kill) is read up to its last consistent row. The tree reads
     lazily and keeps the file open: close it (``tree.close()``, or ``with mt.open_run(p) as
     tree:``) before opening the file again to see rows written since."""
     import xarray as xr
 
-    from .io.hdf5 import consistent_lengths
+    from .io.hdf5 import DATASETS, consistent_lengths
 
     path = Path(path)
     for attempt in range(_OPEN_ATTEMPTS):
@@ -172,9 +173,12 @@ def open_run(path: str | Path):
             node = tree[group]
             if "time" in node.dims and node.sizes["time"] != n:
                 tree[group] = node.to_dataset().isel(time=slice(0, n))
-        if "waves" in tree.children and "eta" in tree["snapshots"].data_vars:
-            # the surface's cells located: eta.isel(time=-1).plot(x="wave_x")
-            tree["snapshots"] = tree["snapshots"].to_dataset().assign_coords(wave_x=tree["waves"]["x"].variable)
+        for d in DATASETS:
+            # a declared coordinate (a dimension's positions) on every group with its dimension
+            if d.coordinate and d.group in tree.children:
+                for group in tree.children:
+                    if d.dims[0] in tree[group].dims and group != d.group:
+                        tree[group] = tree[group].to_dataset().assign_coords({d.coordinate: tree[d.group][d.name].variable})
     except Exception:
         tree.close()  # an open handle would pin HDF5's view of a growing file
         raise

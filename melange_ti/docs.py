@@ -122,7 +122,8 @@ def _bundled(name: str) -> str:
 
 
 def output_page() -> str:
-    from .io.hdf5 import FORMAT_VERSION, variable_attrs
+    from .io.hdf5 import DATASETS, DIMS, FORMAT_VERSION, variable_attrs
+    from .physics.effects import REGISTRY
 
     meta = variable_attrs()
     out = [
@@ -176,23 +177,40 @@ def output_page() -> str:
         "| variable | dimensions | units | meaning |",
         "| --- | --- | --- | --- |",
         "| `/iceberg` | (iceberg) | 1 | iceberg index, the coordinate of the `iceberg` dimension |",
-        "| `/wave_cell` | (wave_cell) | 1 | with the waves effect: index of the wave grid's cell, the coordinate of "
-        "the `wave_cell` dimension |",
     ]
-    dims = {"icebergs": "(iceberg)", "snapshots": "(time, iceberg)", "diagnostics": "(time)", "waves": "(wave_cell)"}
+    # what an effect declares (Effect.dims, Effect.datasets), in a run whose scene names it
+    owner = {name: e.name for e in REGISTRY for name, _ in e.dims}
+    owner.update({d.path: e.name for e in REGISTRY for d in e.datasets})
+    for name, doc in DIMS.items():
+        out.append(
+            f"| `/{name}` | ({name}) | 1 | with the {owner[name]} effect: {_cell(doc)}, "
+            f"the coordinate of the `{name}` dimension |"
+        )
+    dims = {"icebergs": "(iceberg)", "snapshots": "(time, iceberg)", "diagnostics": "(time)"}
+    declared = {d.path: d for d in DATASETS}
     for group, variables in meta.items():
         for name, attrs in sorted(variables.items(), key=lambda kv: (kv[0] != "time", kv[0])):
-            d = "(time)" if name == "time" else dims[group]
-            if (group, name) == ("snapshots", "eta"):
-                d = "(time, wave_cell)"
+            d = "(time)" if name == "time" else dims.get(group, "")
+            decl = declared.get(f"{group}/{name}")
+            if decl is not None:
+                d = "(" + ", ".join((*(("time",) if group == "snapshots" else ()), *decl.dims)) + ")"
             out.append(f"| `/{group}/{name}` | {d} | {_cell(attrs['units'])} | {_cell(attrs['long_name'])} |")
+    coords = [d for d in DATASETS if d.coordinate]
     out += [
         "",
         'State is float64 (float32 with `precision = "f32"`); `theta` is continuous, not wrapped. The',
-        "first snapshot and diagnostic are at t = 0, the last at the end of the run. With the",
-        "waves effect, `mt.open_run` gives `snapshots.eta` the cells' positions `/waves/x` as the",
-        'coordinate `wave_x`: `tree["snapshots"].eta.isel(time=-1).plot(x="wave_x")` draws the last',
-        "surface; `melange-ti plot` and `render` draw it under the icebergs.",
+        "first snapshot and diagnostic are at t = 0, the last at the end of the run.",
+        *(
+            f"With the {owner[d.path]} effect, `mt.open_run` gives every group over `{d.dims[0]}` the positions "
+            f"`/{d.path}` as the coordinate `{d.coordinate}`"
+            + "".join(
+                f': `tree["snapshots"].{s.name}.isel(time=-1).plot(x="{d.coordinate}")` draws the last `{s.name}`'
+                for s in DATASETS
+                if s.group == "snapshots" and s.dims == d.dims
+            )
+            + "; `melange-ti plot` and `render` draw it under the icebergs."
+            for d in coords
+        ),
         "",
         *_budget_section(),
     ]
@@ -202,6 +220,7 @@ def output_page() -> str:
 def _budget_section() -> list[str]:
     """The energy budget, from the schema's ledgers (the same list the summary and the
     energy figure sum)."""
+    from .diagnostics import HELD
     from .physics.schema import ACCUMULATORS, BODIES, ENERGY_LEDGERS
 
     cols = {c.output: c for t in (BODIES, ACCUMULATORS) for c in t.columns if c.output in ENERGY_LEDGERS}
@@ -215,8 +234,8 @@ def _budget_section() -> list[str]:
         "E(0) - E(t) = " + " + ".join(ENERGY_LEDGERS) + " + residual",
         "```",
         "",
-        "with `E = kinetic_energy + potential_energy + wave_energy` (`wave_energy` is 0 without the",
-        "waves effect). A ledger of an effect the scene does not name",
+        f"with `E = {' + '.join(('kinetic_energy', 'potential_energy', *HELD))}` (`mt.total_energy`; an energy an effect "
+        "holds is 0 without the effect). A ledger of an effect the scene does not name",
         "stays zero. `melange-ti plot` draws this budget (`energy_budget.png`) and writes the",
         "residual at the end to `summary.csv` (`energy_residual_end`, with the ledgers summed in",
         "`budget`); `docs/validation.md` gives its size on the paper run.",

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import make_dataclass
 
 import numpy as np
 import taichi as ti
@@ -24,7 +24,6 @@ from . import runtime  # noqa: F401  (imported for its patch: Taichi reuses sour
 from .errors import ContactOverflow
 from .geometry import disc_radius
 from .physics import device, narrow, stages
-from .physics.effects import waves as waves_effect
 from .physics.schema import (
     ACC_LEDGERS,
     ACCUMULATORS,
@@ -38,14 +37,12 @@ from .physics.schema import (
     LIST_POSES,
     PARAMS,
     SCRATCH,
-    WAVES,
     Arrays,
     Body,
     BodyInt,
     Config,
     Counter,
     Param,
-    Wave,
     body_width,
     contact_width,
 )
@@ -70,18 +67,16 @@ CALIBRATE_STEPS = 8  # timed steps per form, after one untimed step each (compil
 _DTYPES = {"f64": ti.f64, "i32": ti.i32, "i64": ti.i64}
 
 
-@dataclass(frozen=True)
-class Totals:
-    """Cumulative scalar counters since t = 0 (the run-wide ledgers and the impulse count)."""
-
-    collision_dissipated: float
-    correction_work: float
-    impulse_offset_work: float
-    wall_impulse: float
-    impulse_sum: float
-    friction_dissipated: float
-    wave_absorbed: float
-    impulses: int
+Totals = make_dataclass(
+    "Totals",
+    [*((name, float) for name in ACC_LEDGERS), ("impulses", int)],
+    frozen=True,
+    namespace={
+        "__doc__": "Cumulative scalar counters since t = 0: every run-wide ledger of the schema (``acc``, the effects' "
+        "included, 0 for an effect not named) and the impulse count."
+    },
+)
+Totals.__module__ = __name__
 
 
 def _scene_value(scene: Scene, key: str) -> float:
@@ -133,11 +128,11 @@ class Model:
             raise ValueError(f"mode must be 'auto', 'serial' or 'parallel', not {mode!r}")
         self.mode = mode
         self.contacts = self.fx.contacts
-        if self.fx.waves:
-            p = scene.physics
-            self.wave_cells, self.wave_dx = waves_effect.grid(p.wall_x, p.wave_end, p.wave_dx)
-        else:
-            self.wave_cells, self.wave_dx = 0, 0.0
+        # the host side of the effect that owns a table, if the scene names one
+        owner = self.fx.owner
+        self.owned = owner.state(scene, self.np_real) if owner is not None else None
+        if self.owned is not None:
+            self.owned.model = self
         slots = scene.contacts.max_partners if self.fx.collisions else 1
         ncells = 1 << max(2, math.ceil(math.log2(max(n, 4)))) if self.fx.collisions else 4
         # candidate lists for the narrow phase, in both forms: the same contacts bit for bit,
@@ -165,10 +160,10 @@ class Model:
             cnt=alloc(COUNTERS),
             acc=alloc(ACCUMULATORS),
             red=ti.ndarray(ti.f64, shape=(device.red_rows(n, ncells) if self.device_parts else 1, device.RED_WIDTH)),
-            wv=ti.ndarray(self.real, shape=(2 * self.wave_cells if self.fx.waves else 1, WAVES.size)),
+            own=ti.ndarray(self.real, shape=(self.owned.rows, owner.table.size) if self.owned is not None else (1, 1)),
         )
         # where :meth:`sample` puts what it fetches (numpy: the kernel writes it in place)
-        self._out, self._out_acc, self._out_cnt = self._sample_buffers(1)
+        self._out, self._out_acc, self._out_cnt, _ = self._sample_buffers(1)
 
         a = self.arrays
         p = scene.physics
@@ -197,11 +192,8 @@ class Model:
                 par[k] = _scene_value(scene, col.source)
         par[Param.BOUND_MAX] = float(bound.max())
         par[Param.EPS] = float(np.finfo(self.np_real).eps)
-        if self.fx.waves:
-            par[Param.WAVE_DX] = self.wave_dx
-            # shares of displaced water are multiples of this: their sums stay exact below 8
-            # (f64; 4 in f32), so the order of the additions does not matter (physics/waves.py)
-            par[Param.WAVE_Q] = 2.0**-50 if self.np_real is np.float64 else 2.0**-22
+        for name, value in (self.owned.params() if self.owned is not None else {}).items():
+            par[getattr(Param, name)] = value
         a.par.from_numpy(par.astype(self.np_real))
         a.scr.from_numpy(np.zeros(a.scr.shape, dtype=self.np_real))
         a.acc.from_numpy(np.zeros(ACCUMULATORS.size))
@@ -216,65 +208,22 @@ class Model:
         cfg[Config.DISCS] = scene.contacts.discs
         cfg[Config.LISTS] = int(self.lists)
         cfg[Config.GROUPS] = self.groups
-        cfg[Config.WAVE_CELLS] = self.wave_cells
-        cfg[Config.WAVE_LOG] = (2 * self.wave_cells).bit_length() - 1 if self.wave_cells else 0
+        for name, value in (self.owned.config() if self.owned is not None else {}).items():
+            cfg[getattr(Config, name)] = value
         a.cfg.from_numpy(cfg)
-        a.wv.from_numpy(self._wave_constants())
+        a.own.from_numpy(self.owned.initial() if self.owned is not None else np.zeros((1, 1), dtype=self.np_real))
 
-    def _wave_constants(self) -> np.ndarray:
-        """The wave grid at rest, with its constants: the absorbing layer's rates, the
-        operator's symbol and the transform's twiddles (computed here, in numpy)."""
-        rows = np.zeros(self.arrays.wv.shape, dtype=np.float64)
-        m = self.wave_cells
-        if m:
-            p = self.scene.physics
-            x = self.wave_x()
-            start = p.wave_end - p.wave_sponge
-            if p.wave_sponge > 0:
-                rows[:m, Wave.SPONGE] = np.where(x > start, waves_effect.SPONGE_RATE * ((x - start) / p.wave_sponge) ** 2, 0.0)
-            k = np.pi * np.arange(m) / (m * self.wave_dx)
-            rows[:m, Wave.KT] = k * np.tanh(k * p.water_depth) / m
-            # cosh(k (H - d)) / cosh(k H), written without overflow; mode 0 has half the
-            # weight of the others in the inverse cosine transform
-            d, h = p.wave_pressure_depth, p.water_depth
-            rows[:m, Wave.AT] = (np.exp(-k * d) + np.exp(-k * (2 * h - d))) / (1 + np.exp(-2 * k * h)) / m
-            rows[0, Wave.AT] *= 0.5
-            rows[:m, Wave.CR] = np.cos(np.pi * np.arange(m) / (2 * m))
-            rows[:m, Wave.CI] = np.sin(np.pi * np.arange(m) / (2 * m))
-            rows[:m, Wave.TWR] = np.cos(2 * np.pi * np.arange(m) / (2 * m))
-            rows[:m, Wave.TWI] = -np.sin(2 * np.pi * np.arange(m) / (2 * m))
-            bits = (2 * m).bit_length() - 1
-            q = np.arange(2 * m)
-            rows[: 2 * m, Wave.REV] = sum(((q >> b) & 1) << (bits - 1 - b) for b in range(bits))
-        return rows.astype(self.np_real)
+    def effect(self, name: str):
+        """The host side (:class:`~melange_ti.physics.effects.State`) of the named effect that
+        owns state (docs/api.md names each one's methods). ``KeyError`` if the model has none
+        by that name."""
+        if self.owned is None or self.fx.owner.name != name:
+            raise KeyError(f"the model's scene names no effect {name!r} that owns state")
+        return self.owned
 
-    # ------------------------------------------------------------------ the wave grid
-    def wave_x(self) -> np.ndarray:
-        """x of the wave grid's cell centres (waves effect; empty without it)."""
-        x0 = self.scene.physics.wall_x
-        return x0 + (np.arange(self.wave_cells) + 0.5) * self.wave_dx
-
-    def wave_state(self) -> dict[str, np.ndarray]:
-        """``eta``, ``phi`` and ``g_phi`` (``G phi``) at the cell centres (waves effect)."""
-        rows = self.arrays.wv.to_numpy()[: self.wave_cells]
-        return {"eta": rows[:, Wave.ETA].copy(), "phi": rows[:, Wave.PHI].copy(), "g_phi": rows[:, Wave.GPHI].copy()}
-
-    def set_wave_state(self, eta: np.ndarray, phi: np.ndarray | None = None) -> None:
-        """Set the sea surface (and the potential, default 0) at the cell centres."""
-        a = self.arrays
-        rows = a.wv.to_numpy()
-        rows[: self.wave_cells, Wave.ETA] = eta
-        rows[: self.wave_cells, Wave.PHI] = 0.0 if phi is None else phi
-        a.wv.from_numpy(rows)
-        stages.wave_refresh(a.cfg, a.wv)
-
-    def wave_energy(self, state: dict[str, np.ndarray] | None = None) -> float:
-        """``rho g / 2 sum eta^2 dx + rho / 2 sum phi G phi dx`` (waves effect; else 0), summed
-        in f64; of ``state`` (:meth:`wave_state`) if given, else fetched."""
-        if not self.wave_cells:
-            return 0.0
-        w = {k: v.astype(np.float64) for k, v in (state or self.wave_state()).items()}
-        return float(0.5 * self.wave_dx * (np.dot(w["eta"], w["eta"]) + np.dot(w["phi"], w["g_phi"])))
+    def own_rows(self) -> np.ndarray:
+        """The owning effect's table (``a.own``) as numpy."""
+        return self.arrays.own.to_numpy()
 
     # ------------------------------------------------------------------ host side
     def _rows(self) -> np.ndarray:
@@ -308,19 +257,14 @@ class Model:
         output event's whole fetch)."""
         a = self.arrays
         stages.sample_all(self.fx, a.b, a.par, a.acc, a.cnt, self._out, self._out_acc, self._out_cnt)
-        sample, totals = self._unpack(self._out, self._out_acc, self._out_cnt, 0)
-        if self.wave_cells:
-            w = self.wave_state()
-            sample["eta"] = w["eta"]
-            sample["wave_energy"] = np.array(self.wave_energy(w))
-        return sample, totals
+        return self._unpack(self._out, self._out_acc, self._out_cnt, None, 0)
 
     def advance_sampled(self, segments: list[int]) -> list[tuple[dict[str, np.ndarray], Totals]]:
         """Advance ``segments[0]`` steps and take :meth:`sample_with_totals`, then
         ``segments[1]`` steps and sample again, ...; the serial form does it all in one
         kernel launch (a run's output events between two writes). The same bits as
         :meth:`advance` and :meth:`sample_with_totals` in turn."""
-        if self.mode != "serial" or self._calibrate or len(segments) < 2 or self.wave_cells:
+        if self.mode != "serial" or self._calibrate or len(segments) < 2:
             out = []
             for steps in segments:
                 self.advance(steps)
@@ -331,15 +275,22 @@ class Model:
         self._check_overflow()
         return [self._unpack(*bufs, k) for k in range(len(segments))]
 
-    def _sample_buffers(self, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _sample_buffers(self, count: int) -> tuple[np.ndarray, ...]:
+        """Where a launch puts its samples; the last, a copy of the owning effect's table per
+        sample (a sample of one element without one)."""
         return (
             np.zeros((count, self.n, len(stages.SAMPLE_NAMES)), dtype=self.np_real),
             np.zeros((count, ACCUMULATORS.size), dtype=np.float64),
             np.zeros((count, COUNTERS.size), dtype=np.int64),
+            np.zeros((count, *(self.arrays.own.shape if self.owned is not None else (1, 1))), dtype=self.np_real),
         )
 
-    def _unpack(self, out, out_acc, out_cnt, k: int) -> tuple[dict[str, np.ndarray], Totals]:
+    def _unpack(self, out, out_acc, out_cnt, out_own, k: int) -> tuple[dict[str, np.ndarray], Totals]:
+        """Sample ``k`` of the buffers; the owning effect's part from its table, copied in the
+        launch (``out_own``) or, ``None``, fetched now: the same values."""
         sample = {name: out[k, :, q].copy() for q, name in enumerate(stages.SAMPLE_NAMES)}
+        if self.owned is not None:
+            sample.update(self.owned.sample(self.own_rows() if out_own is None else out_own[k]))
         return sample, self._totals(out_acc[k], out_cnt[k])
 
     def totals(self) -> Totals:
@@ -356,8 +307,8 @@ class Model:
         out = {name: rows[:, col].copy() if col < rows.shape[1] else np.zeros(self.n) for name, col in BODY_LEDGERS.items()}
         out["acc"] = self.arrays.acc.to_numpy()
         out["counters"] = self.arrays.cnt.to_numpy()
-        if self.wave_cells:
-            out["waves"] = self.arrays.wv.to_numpy()  # the grid's state and its G phi
+        if self.owned is not None:  # the owning effect's whole table, under its name
+            out[self.fx.owner.name] = self.own_rows()
         return out
 
     def set_accumulators(self, acc: dict[str, np.ndarray]) -> None:
@@ -371,8 +322,8 @@ class Model:
         stored = np.asarray(acc["counters"], dtype=np.int64)[: COUNTERS.size]
         counters[: stored.size] = stored  # a checkpoint from before a counter was added
         self.arrays.cnt.from_numpy(counters)
-        if self.wave_cells:
-            self.arrays.wv.from_numpy(np.asarray(acc["waves"], dtype=self.np_real))
+        if self.owned is not None:
+            self.arrays.own.from_numpy(np.asarray(acc[self.fx.owner.name], dtype=self.np_real))
 
     def clear_candidate_lists(self) -> None:
         """Forget the narrow phase's candidate lists: the next detection searches every pair

@@ -429,7 +429,9 @@ class Simulation:
                     raise OutputError(f"{self.ckpt}: cannot remove an earlier run's checkpoint ({exc.strerror})") from None
             if self.out.exists():
                 self.out.unlink()
-            writer = RunWriter(self.out, attrs, model.constants(), dtype, wave_x=model.wave_x())
+            own = model.owned
+            own = {"dims": own.dims(), "constants": own.constants()} if own is not None else None
+            writer = RunWriter(self.out, attrs, model.constants(), dtype, own=own)
         self.writer = writer
         self.total_mass = float(model.constants()["mass"].sum())
         # the first launch compiles the kernels, or loads them from Taichi's offline cache

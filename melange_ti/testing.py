@@ -1,7 +1,7 @@
 """What the tests and the validation scripts share: scenes of a few explicit icebergs written as
-a user would, a model's first impulse read off its velocities and contact columns, and the
-contact law of docs/model.md written again in numpy, independently of the kernels, to check
-them against.
+a user would, a model's first impulse read off its velocities and contact columns, a period
+from zero crossings, and the contact law of docs/model.md written again in numpy,
+independently of the kernels, to check them against.
 
 Nothing here is used by a run; it is importable so that ``tests/`` and ``validation/`` use one
 copy (validation scripts do not import from ``tests/``).
@@ -53,6 +53,21 @@ def kinetic(s: Mapping[str, np.ndarray], idx: Iterable[int], mass, inertia) -> f
     return sum(0.5 * mass[q] * (s["vx"][q] ** 2 + s["vz"][q] ** 2) + 0.5 * inertia[q] * s["omega"][q] ** 2 for q in idx)
 
 
+def point_velocity(s: Mapping[str, np.ndarray], q: int, r) -> np.ndarray:
+    """Velocity of the point at arm ``r`` (from the centre, world frame) of body ``q`` of state ``s``."""
+    return np.array([s["vx"][q] - s["omega"][q] * r[1], s["vz"][q] + s["omega"][q] * r[0]])
+
+
+def zero_crossing_period(t: np.ndarray, y: np.ndarray, least: int = 3) -> float:
+    """Period of an oscillation ``y(t)`` from the mean spacing of its zero crossings (linear
+    interpolation between samples); NaN with fewer than ``least`` crossings."""
+    idx = np.flatnonzero(np.signbit(y[1:]) != np.signbit(y[:-1]))
+    if idx.size < max(2, least):
+        return float("nan")
+    tc = t[idx] + (t[idx + 1] - t[idx]) * y[idx] / (y[idx] - y[idx + 1])
+    return float(2.0 * (tc[-1] - tc[0]) / (tc.size - 1))
+
+
 def first_impulse(m, steps: int = 40):
     """Step one at a time until an impulse is applied: (state before, after, totals before, after)."""
     for _ in range(steps):
@@ -85,7 +100,7 @@ def contacts_seen(m) -> list[ContactSeen]:
     """The contacts the last step found (its last detection round): the wall's and each body's
     partners j > i. The narrow phase alone writes these columns, so after a step they hold the
     contacts its impulse pass used (a step with one detection round)."""
-    from .physics.columns import Body, BodyInt, Contact, Param
+    from .physics.schema import Body, BodyInt, Contact, Param
 
     a = m.arrays
     b, bi, cd, cp = a.b.to_numpy(), a.bi.to_numpy(), a.cd.to_numpy(), a.cp.to_numpy()

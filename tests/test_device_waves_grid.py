@@ -35,10 +35,11 @@ text = ('[scene]\\neffects = ["gravity", "buoyancy", "waves"]\\n'
         '[physics]\\nwave_end = 400.0\\nwave_sponge = 50.0\\nwave_dx = 0.01\\n'
         '[time]\\ndt = 0.02\\nduration = 0.06\\n[[iceberg]]\\nx = 100.0\\nz = -0.3\\n')
 m = Model(loads(text))
-m.set_wave_state(np.full(m.wave_cells, 0.01))
+m.effect("waves").set_surface(np.full(m.effect("waves").cells, 0.01))
 m.advance(3)
 s, totals = m.sample_with_totals()
-np.savez(sys.argv[2], eta=m.wave_state()["eta"], z=s["z"], absorbed=totals.wave_absorbed, cells=m.wave_cells)
+g = m.effect("waves")
+np.savez(sys.argv[2], eta=g.surface()["eta"], z=s["z"], absorbed=totals.wave_absorbed, cells=g.cells)
 """
 
 

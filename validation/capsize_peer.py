@@ -4,9 +4,9 @@
                                       [--out validation/results]
 
 Runs the bundled paper scene (same scene file, same seeded initial state) with the pymunk
-(Chipmunk2D) peer of ``melange-ti bench peers`` -- exact polygons instead of discs, its own
-iterative contact solver, zero friction, restitution via elasticities, the same numpy
-buoyancy and drag -- and records the capsized fraction and the leading edge every 100 time
+(Chipmunk2D) peer (:mod:`melange_ti.studies.peer`, which ``melange-ti bench peers`` times) --
+exact polygons instead of discs, its own iterative contact solver, zero friction, restitution
+via elasticities, the same numpy buoyancy and drag -- and records the capsized fraction and the leading edge every 100 time
 units. melange_ti runs given as HDF5 files (e.g. ``melange-ti run --out paper.h5``) are read
 for comparison. Writes ``capsize_peer.csv`` and ``capsize_peer.png``.
 
@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from melange_ti import scene as scn
-from melange_ti.bench.peers import PymunkMelange
 from melange_ti.diagnostics import capsized_fraction
+from melange_ti.studies.peer import PymunkMelange
 
 
 def pymunk_curve(seed: int, duration: float, every: float = 100.0) -> list[dict]:

@@ -68,8 +68,8 @@ def capsize(cd: float, ca: float, waves: bool = True, depth: float = 1.0, durati
         s, tot = m.sample_with_totals()
         v = np.array([s["vx"][0], s["vz"][0], s["omega"][0]])
         own_ke = 0.5 * mass * (v[0] ** 2 + v[1] ** 2) + 0.5 * inertia * v[2] ** 2
-        w = m.wave_state() if waves else {"eta": np.zeros(1), "phi": np.zeros(1), "g_phi": np.zeros(1)}
-        we = m.wave_energy(w) if waves else 0.0
+        w = m.effect("waves").surface() if waves else {"eta": np.zeros(1), "phi": np.zeros(1), "g_phi": np.zeros(1)}
+        we = m.effect("waves").energy(w) if waves else 0.0
         pot = float(np.sum(s["potential"]))
         e = float(np.sum(s["kinetic"])) + pot + we
         ledgers = float(np.sum(s["drag_dissipated"])) + float(np.sum(s.get("added_mass_work", 0.0))) + tot.wave_absorbed
@@ -82,7 +82,7 @@ def capsize(cd: float, ca: float, waves: bool = True, depth: float = 1.0, durati
         v = 0.5 * (v0 + v1)
         phi, g_phi = 0.5 * (w0["phi"] + w1["phi"]), 0.5 * (w0["g_phi"] + w1["g_phi"])
         ke = 0.5 * mass * (v[0] ** 2 + v[1] ** 2) + 0.5 * inertia * v[2] ** 2
-        return ke + pot + (0.5 * m.wave_dx * (w0["eta"] @ w0["eta"] + phi @ g_phi) if waves else 0.0)
+        return ke + pot + (0.5 * m.effect("waves").dx * (w0["eta"] @ w0["eta"] + phi @ g_phi) if waves else 0.0)
 
     first = energy()
     e0 = first[0]

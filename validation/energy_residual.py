@@ -15,6 +15,7 @@ from pathlib import Path
 from melange_ti import runtime
 from melange_ti import scene as scn
 from melange_ti.diagnostics import ENERGY_LEDGERS
+from melange_ti.energy import total_energy
 
 
 def main() -> None:
@@ -31,11 +32,11 @@ def main() -> None:
         sc = scn.load(None, [("shelf.count", a.count), ("time.dt", dt)])
         m = Model(sc)
         s0 = m.sample()
-        e0 = s0["kinetic"].sum() + s0["potential"].sum()
+        e0 = total_energy(s0)
         m.advance(round(a.time / dt))
         s = m.sample()
         tot = m.totals()
-        released = e0 - (s["kinetic"].sum() + s["potential"].sum())
+        released = e0 - total_energy(s)
         booked = sum(float(s[k].sum()) if k in s else getattr(tot, k) for k in ENERGY_LEDGERS)
         rows.append(
             {

@@ -42,6 +42,7 @@ from melange_ti.testing import (
     initial,
     kinetic,
     make_scene,
+    point_velocity,
 )
 
 R = DENSITY_RATIO
@@ -71,10 +72,6 @@ def models():
         ["collisions", "friction"], bergs, {"restitution": E, "density_ratio": R, "friction": MU}, contacts={"discs": DISCS}
     )
     return (Model(wall), wall), (Model(pair), pair)
-
-
-def point_velocity(s, q, r):
-    return np.array([s["vx"][q] - s["omega"][q] * r[1], s["vz"][q] + s["omega"][q] * r[0]])
 
 
 def old_restitution(kk, vn, vt):

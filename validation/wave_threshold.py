@@ -40,10 +40,10 @@ def run(a: float, k: float, water: bool, duration: float = 200.0) -> tuple[bool,
         "iceberg": [{"x": 100.0, "z": -R * H_BLOCK + 0.5 * H_BLOCK, "thickness": H_BLOCK}],
     }
     m = Model(loads(dumps_toml(doc)), mode="serial")
-    x = m.wave_x()
+    x = m.effect("waves").x()
     env = a * np.exp(-(((x - 60.0) / 8.0) ** 2))
     w = math.sqrt(k * math.tanh(k * 6.0))
-    m.set_wave_state(env * np.cos(k * (x - 60.0)), env * (1.0 / w) * np.sin(k * (x - 60.0)))
+    m.effect("waves").set_surface(env * np.cos(k * (x - 60.0)), env * (1.0 / w) * np.sin(k * (x - 60.0)))
     worst = 0.0
     for _ in range(round(duration)):
         m.advance(100)

@@ -3,9 +3,10 @@
 Configurations of dt, discs, precision and contact passes (one factor at a time around
 dt 0.01 / 28 discs / f64 / 1 pass; ``--grid full`` for every combination), each precision
 in its own worker process (:mod:`melange_ti.bench.worker`, because ``ti.init`` cannot be
-repeated with another ``default_fp`` in one process). Errors against analytic
-single-iceberg results and against a reference ensemble of the paper scene; plus the
-largest stable dt. Pareto plot.
+repeated with another ``default_fp`` in one process). Errors against a reference ensemble of
+the paper scene, and the physics studies' errors (:mod:`melange_ti.studies`: one iceberg
+against closed forms, the largest stable dt) put next to the cost of each configuration.
+Pareto plot.
 """
 
 from __future__ import annotations

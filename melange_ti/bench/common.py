@@ -1,6 +1,7 @@
 """What the benchmark subcommands share: options, scenes and states, timing, CSV, tables, plots.
 
-Nothing here imports Taichi or matplotlib at import time.
+Nothing here imports Taichi or matplotlib at import time. The scenes are the studies' own
+(:mod:`melange_ti.studies.scenes`): the benchmarks time what the studies check.
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from ..studies.scenes import paper_scene
 
 STATE = ("x", "z", "theta", "vx", "vz", "omega")
 
@@ -63,51 +66,6 @@ def sync() -> None:
 
 
 # ============================================================================ scenes and states
-def dt_overrides(dt: float, duration: float) -> list[tuple[str, object]]:
-    """Scene overrides for an arbitrary ``dt``: every interval a whole number of steps; a
-    ``dt`` past the scene's refusal is let through (the stability scans look for it)."""
-    steps = max(1, int(round(duration / dt)))
-
-    def whole(interval: float) -> float:
-        return dt * max(1, int(round(interval / dt)))
-
-    return [
-        ("time.dt", float(dt)),
-        ("time.allow_unstable", True),
-        ("time.duration", dt * steps),
-        ("output.snapshot_interval", whole(10.0)),
-        ("output.diagnostic_interval", whole(1.0)),
-        ("output.checkpoint_interval", whole(500.0)),
-    ]
-
-
-def paper_scene(
-    n: int,
-    *,
-    precision: str = "f64",
-    dt: float = 0.01,
-    duration: float | None = None,
-    discs: int = 28,
-    passes: int = 1,
-    seed: int = 1,
-    extra: list | None = None,
-):
-    """The bundled paper scene with ``[shelf] count = n`` and the given settings (and
-    overrides ``extra``); ``duration`` defaults to ``max(dt, 1)``."""
-    from .. import scene
-
-    ov = [
-        ("shelf.count", int(n)),
-        ("scene.precision", precision),
-        ("contacts.discs", int(discs)),
-        ("contacts.contact_passes", int(passes)),
-        ("time.seed", int(seed)),
-        *dt_overrides(dt, max(dt, 1.0) if duration is None else duration),
-        *(extra or []),
-    ]
-    return scene.load(None, ov)
-
-
 def initial_state(sc) -> dict[str, np.ndarray]:
     """The scene's initial state with geometry (``width``, ``thickness``), float64."""
     b = sc.icebergs()

@@ -30,11 +30,12 @@ import h5py
 import numpy as np
 
 from ..diagnostics import FIELDS
-from ..physics.schema import BODIES, WAVES
+from ..physics.effects import REGISTRY
+from ..physics.schema import BODIES
 from ..physics.schema import STATE_NAMES as STATE
 
-# 5: wave_energy and wave_absorbed (0 without the waves effect); with it /waves/x and
-# /snapshots/eta;
+# 5: the energy an effect holds and its run-wide ledger (0 without it); the datasets and
+# dimensions an effect declares (docs/output.md);
 # 4: friction_dissipated (the friction effect's ledger, 0 without it), the taichi_arch attribute;
 # 3: every diagnostic of diagnostics.FIELDS with since <= 3 (contacts, wall_force,
 # impulse_rate, impulse_offset_work, added_mass_work were added during version 2);
@@ -46,6 +47,11 @@ SCENE_ATTR = "scene_toml"  # root attribute: the resolved scene, as run (TOML te
 COMPLETE_ATTR = "complete"  # root attribute: True once the run reached its end
 DIAGNOSTICS = tuple(f.name for f in FIELDS)
 DIAG_INT = tuple(f.name for f in FIELDS if f.dtype.startswith("i"))
+GROUPS = ("icebergs", "snapshots", "diagnostics")  # the model's own; an effect may add more
+# every variable and dimension an effect declares (Effect.datasets, Effect.dims): written in the
+# file of a run whose scene names the effect
+DATASETS = tuple(d for e in REGISTRY for d in e.datasets)
+DIMS = {name: doc for e in REGISTRY for name, doc in e.dims}
 TIME_UNITS = "sqrt(w/g)"
 REFERENCE = (
     "Guttenberg, N., Abbot, D. S., Amundson, J. M., Burton, J. C., Cathles, L. M., MacAyeal, D. R. and Zhang, W. W. "
@@ -64,12 +70,12 @@ def variable_attrs() -> dict[str, dict[str, dict[str, str]]]:
     bergs = {k: {"units": cols[k].units, "long_name": cols[k].doc} for k in ("width", "thickness", "mass", "inertia")}
     snaps = {k: {"units": cols[k].units, "long_name": cols[k].doc} for k in STATE}
     diags = {f.name: {"units": f.units, "long_name": f.long_name} for f in FIELDS}
-    wave = {c.output: c for c in WAVES.columns if c.output}
-    snaps["eta"] = {"units": wave["eta"].units, "long_name": wave["eta"].doc + " (waves effect)"}
+    out = {"icebergs": bergs, "snapshots": snaps, "diagnostics": diags}
+    for d in DATASETS:
+        out.setdefault(d.group, {})[d.name] = {"units": d.units, "long_name": d.doc}
     for g in (snaps, diags):
         g["time"] = {"units": TIME_UNITS, "long_name": "time", "axis": "T"}
-    waves = {"x": {"units": "w", "long_name": "centre of the wave grid's cell"}}
-    return {"icebergs": bergs, "snapshots": snaps, "diagnostics": diags, "waves": waves}
+    return out
 
 
 class OutputError(RuntimeError):
@@ -86,7 +92,10 @@ class RunWriter:
     ``mode="w"`` creates the file (refusing an existing one unless ``overwrite``);
     ``mode="r+"`` reopens a file to resume it, truncated to ``resume_time`` (a time, or one
     per group: ``{"snapshots": t_s, "diagnostics": t_d}``), after setting
-    ``attrs`` (an extended run's scene and history).
+    ``attrs`` (an extended run's scene and history). ``own``: what the effects that own
+    state write, ``{"dims": {dimension: length}, "constants": {path: values}}`` (their
+    ``State.dims()``, ``State.constants()``): each declared dataset whose dimensions are
+    there is made, the snapshot ones (``snapshots/...``) appended with every snapshot.
     """
 
     def __init__(
@@ -97,14 +106,14 @@ class RunWriter:
         dtype: type = np.float64,
         mode: str = "w",
         resume_time: float | dict[str, float] | None = None,
-        wave_x: np.ndarray | None = None,
+        own: dict | None = None,
     ):
         self.path = Path(path)
         self.dtype = np.dtype(dtype)
         try:
             if mode == "w":
                 self.f = h5py.File(self.path, "w", locking=False)
-                self._create(attrs or {}, constants or {}, wave_x)
+                self._create(attrs or {}, constants or {}, own or {})
             else:
                 self.f = h5py.File(self.path, "r+", locking=False)
                 if attrs:  # first, with complete false: cut short, the file still says what it is
@@ -116,7 +125,7 @@ class RunWriter:
             raise OutputError(f"--out {str(self.path)!r}: cannot write ({_reason(exc)})") from None
         self._pending: list[dict] = []
         # Dataset handles looked up once: h5py's group lookup costs more than a small write.
-        self._state = (*STATE, "eta") if "eta" in self.f["snapshots"] else STATE
+        self._state = (*STATE, *(d.name for d in DATASETS if d.group == "snapshots" and d.name in self.f["snapshots"]))
         self._snap = {k: self.f["snapshots"][k] for k in ("time", *self._state)}
         self._diag = {k: self.f["diagnostics"][k] for k in ("time", *DIAGNOSTICS)}
         self._nsnap = self._snap["time"].shape[0]
@@ -129,7 +138,7 @@ class RunWriter:
         )
         self._room = 2 * (snap_chunks + (len(DIAGNOSTICS) + 2) * 8192) + (64 << 10)
 
-    def _create(self, attrs: dict, constants: dict[str, np.ndarray], wave_x: np.ndarray | None = None) -> None:
+    def _create(self, attrs: dict, constants: dict[str, np.ndarray], own: dict) -> None:
         f = self.f
         attrs = dict(attrs)  # history is taken out below; the caller's dict stays as it was
         version = attrs.get("melange_ti_version", "")
@@ -164,22 +173,32 @@ class RunWriter:
             ds.dims[0].attach_scale(st)
             ds.dims[1].attach_scale(iceberg)
             ds.attrs.update(meta["snapshots"][k])
-        if wave_x is not None and len(wave_x):
-            # the waves effect: its cells (dimension wave_cell, at the root like iceberg, so
-            # netCDF readers see it from every group), their centres and each snapshot's surface
-            m = len(wave_x)
-            cell = f.create_dataset("wave_cell", data=np.arange(m, dtype=np.int64))
-            cell.attrs.update({"units": "1", "long_name": "index of the wave grid's cell, from the wall"})
-            cell.make_scale("wave_cell")
-            wx = f.create_group("waves").create_dataset("x", data=np.asarray(wave_x, dtype=np.float64))
-            wx.dims[0].attach_scale(cell)
-            wx.attrs.update(meta["waves"]["x"])
-            ds = s.create_dataset(
-                "eta", shape=(0, m), maxshape=(None, m), dtype=self.dtype, chunks=(max(1, min(64, 65536 // m)), m)
-            )
-            ds.dims[0].attach_scale(st)
-            ds.dims[1].attach_scale(cell)
-            ds.attrs.update(meta["snapshots"]["eta"])
+        # the effects' dimensions (at the root like iceberg, so netCDF readers see them from
+        # every group) and the datasets they declare over them
+        sizes = dict(own.get("dims", {}))
+        scales = {}
+        for name, size in sizes.items():
+            scales[name] = f.create_dataset(name, data=np.arange(size, dtype=np.int64))
+            scales[name].attrs.update({"units": "1", "long_name": DIMS[name]})
+            scales[name].make_scale(name)
+        for d in DATASETS:
+            if not all(dim in sizes for dim in d.dims):
+                continue  # an effect the scene does not name
+            shape = tuple(sizes[dim] for dim in d.dims)
+            if d.group == "snapshots":
+                rows_d = max(1, min(64, 65536 // max(1, int(np.prod(shape)))))
+                ds = s.create_dataset(
+                    d.name, shape=(0, *shape), maxshape=(None, *shape), dtype=self.dtype, chunks=(rows_d, *shape)
+                )
+                ds.dims[0].attach_scale(st)
+                first = 1
+            else:
+                group = f[d.group] if d.group in f else f.create_group(d.group)
+                ds = group.create_dataset(d.name, data=np.asarray(own["constants"][d.path], dtype=np.float64))
+                first = 0
+            for k, dim in enumerate(d.dims):
+                ds.dims[first + k].attach_scale(scales[dim])
+            ds.attrs.update(meta[d.group][d.name])
         d = f.create_group("diagnostics")
         dt_ = d.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(1024,))
         dt_.make_scale("time")
@@ -345,17 +364,18 @@ def read_run(path: str | Path) -> dict:
     """Load a run file into plain numpy arrays, cut to consistent lengths.
 
     Returns ``{"attrs": {...}, "icebergs": {...}, "snapshots": {...}, "diagnostics": {...}}``,
-    and ``"waves": {"x": ...}`` (the wave grid's cell centres) for a run with the ``waves``
-    effect. Raises :class:`OutputError` with one line for a file that is not a readable run.
+    and each group an effect declares that the file holds (``{group: {name: values}}``:
+    its datasets written once, :data:`DATASETS`). Raises :class:`OutputError` with one line for a file that is not a readable run.
     """
     with _reading(path) as f:
         out = {"attrs": {k: _plain(v) for k, v in f.attrs.items()}}
-        for group in ("icebergs", "snapshots", "diagnostics"):
+        for group in GROUPS:
             g = f[group]
             n = consistent_length(g) if group != "icebergs" else None
             out[group] = {k: (ds[:n] if n is not None else ds[:]) for k, ds in g.items()}
-        if "waves" in f:
-            out["waves"] = {k: ds[:] for k, ds in f["waves"].items()}
+        for group in sorted({d.group for d in DATASETS} - set(GROUPS)):
+            if group in f:
+                out[group] = {k: ds[:] for k, ds in f[group].items()}
     return out
 
 

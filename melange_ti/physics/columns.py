@@ -1,58 +1,13 @@
-"""Column and table types of the schema, and the namespaces kernels index arrays with.
+"""Column and table types of the schema (:mod:`.schema` builds the model's tables from them
+and the effects' declarations, and fills the namespaces kernels index arrays with).
 
-The namespaces are declared here, empty, and filled by :mod:`.schema` once every effect has
-contributed its columns; effect modules import them from here (they are part of what the
-schema is built from), kernels may import them from either module.
+Importable alone, with no Taichi: effect declarations use these types to declare their
+columns and tables.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-
-
-class Body:
-    """Columns of ``b`` (bodies): filled by :mod:`.schema`."""
-
-
-class BodyInt:
-    """Columns of ``bi`` (body_ints)."""
-
-
-class Contact:
-    """Columns of ``cd`` (contacts)."""
-
-
-class ListPose:
-    """Columns of ``nr`` (list_poses)."""
-
-
-class Cell:
-    """Columns of ``cells``."""
-
-
-class Param:
-    """Slots of ``par`` (params)."""
-
-
-class Scratch:
-    """Slots of ``scr`` (scratch)."""
-
-
-class Config:
-    """Slots of ``cfg`` (config)."""
-
-
-class Counter:
-    """Slots of ``cnt`` (counters)."""
-
-
-class Acc:
-    """Slots of ``acc`` (accumulators)."""
-
-
-class Wave:
-    """Columns of ``wv`` (the wave grid, with the waves effect)."""
-
 
 ROLES = ("state", "constant", "cache", "scratch", "ledger", "counter", "config")
 E = "rho_w g w^3"  # energy per unit length into the page (g = rho_w = w = 1)

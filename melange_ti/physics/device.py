@@ -31,11 +31,12 @@ import taichi as ti
 
 from .correction import MAX_CORRECT, sweep_body
 from .impulses import body_contacts, contact_range
-from .schema import Acc, Body, BodyInt, Cell, Config, Contact, Counter
+from .schema import MAX_LAW_LEDGERS, Acc, Body, BodyInt, Cell, Config, Contact, Counter, law_ledgers
 
 BLOCK_BITS = 8
 BLOCK = 1 << BLOCK_BITS
-RED_WIDTH = 6  # partial sums per block: the impulses' four ledgers, their count, friction's ledger
+RED_FIXED = 3  # partial sums per block: the wall's impulses, all impulses, their count; then
+RED_WIDTH = RED_FIXED + MAX_LAW_LEDGERS  # the contact law's ledgers (schema.law_ledgers)
 
 
 def red_rows(n: int, ncells: int) -> int:
@@ -209,11 +210,13 @@ def correct_spans(fx: ti.template(), a: ti.template()):
 @ti.func
 def impulse_sums(fx: ti.template(), a: ti.template()):
     """Per block, the deferred terms of its bodies' impulses in the sequential order
-    (:func:`.impulses.book`), cleared."""
+    (:func:`.impulses.book`), cleared: the wall's impulses, all impulses, their count and
+    the contact law's ledgers (:func:`.schema.law_ledgers`), in columns ``RED_FIXED + q``."""
     cd = ti.static(a.cd)
     n = a.bi.shape[0]
     for blk in range(blocks(n)):
-        col, off, wal, imp, fri = zero64(), zero64(), zero64(), zero64(), zero64()
+        wal, imp = zero64(), zero64()
+        led = ti.Vector(ti.static([0.0] * len(law_ledgers(fx))), dt=ti.f64)
         count = 0
         for i in range(blk * BLOCK, ti.min(n, (blk + 1) * BLOCK)):
             first, last = contact_range(fx, a, i)
@@ -225,40 +228,34 @@ def impulse_sums(fx: ti.template(), a: ti.template()):
                 if jn > 0:
                     if s0 < 0:
                         wal += jn
-                    col += cd[s, i, Contact.DEF_COLLISION]
-                    off += cd[s, i, Contact.DEF_OFFSET]
                     imp += jn
-                    if ti.static(fx.friction):
-                        fri += cd[s, i, Contact.DEF_FRICTION]
+                    for q in ti.static(range(len(law_ledgers(fx)))):
+                        led[q] += cd[s, i, ti.static(law_ledgers(fx)[q][1])]
                     count += 1
                     cd[s, i, Contact.DEF_IMPULSE] = 0.0
-        a.red[blk, 0] = col
-        a.red[blk, 1] = off
-        a.red[blk, 2] = wal
-        a.red[blk, 3] = imp
-        a.red[blk, 4] = ti.cast(count, ti.f64)
-        a.red[blk, 5] = fri
+        a.red[blk, 0] = wal
+        a.red[blk, 1] = imp
+        a.red[blk, 2] = ti.cast(count, ti.f64)
+        for q in ti.static(range(len(law_ledgers(fx)))):
+            a.red[blk, RED_FIXED + q] = led[q]
 
 
 @ti.func
 def impulse_total(fx: ti.template(), a: ti.template()):
-    col, off, wal, imp, fri = zero64(), zero64(), zero64(), zero64(), zero64()
+    wal, imp = zero64(), zero64()
+    led = ti.Vector(ti.static([0.0] * len(law_ledgers(fx))), dt=ti.f64)
     count = ti.cast(0, ti.i64)
     for blk in range(blocks(a.bi.shape[0])):
-        col += a.red[blk, 0]
-        off += a.red[blk, 1]
-        wal += a.red[blk, 2]
-        imp += a.red[blk, 3]
-        count += ti.cast(a.red[blk, 4], ti.i64)
-        if ti.static(fx.friction):
-            fri += a.red[blk, 5]
+        wal += a.red[blk, 0]
+        imp += a.red[blk, 1]
+        count += ti.cast(a.red[blk, 2], ti.i64)
+        for q in ti.static(range(len(law_ledgers(fx)))):
+            led[q] += a.red[blk, RED_FIXED + q]
     a.cnt[Counter.IMPULSES] += count
-    a.acc[Acc.COLLISION] += col
-    a.acc[Acc.OFFSET] += off
     a.acc[Acc.WALL_IMPULSE] += wal
     a.acc[Acc.IMPULSE] += imp
-    if ti.static(fx.friction):
-        a.acc[Acc.FRICTION] += fri
+    for q in ti.static(range(len(law_ledgers(fx)))):
+        a.acc[ti.static(law_ledgers(fx)[q][0])] += led[q]
 
 
 @ti.func

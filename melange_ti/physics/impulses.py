@@ -4,9 +4,10 @@ Per contact with point p, unit normal n (from body j to body i) and arms r_k = p
 ``J = -(1 + e) (v_rel . n) / K`` with ``K = 1/m_i + 1/m_j + (r_i x n)^2/I_i + (r_j x n)^2/I_j``,
 applied only when the pair approaches and would touch within the step (speculative
 contacts); each impulse dissipates exactly ``0.5 (1 - e^2) (v_rel . n)^2 / K``
-(``Acc.COLLISION``). With the friction effect the law is :func:`coulomb`'s, one impulse with
-a tangential part, whose two ledgers are each part's work. The wall is a partner of infinite
-mass (j < 0).
+(``Acc.COLLISION``). A named effect with an ``impulse`` term replaces that impulse (friction:
+one impulse with a tangential part, :func:`..terms.friction.impulse`) and books ledgers of
+its own; every ledger of the law goes through one list (:func:`.schema.law_ledgers`) in
+every form. The wall is a partner of infinite mass (j < 0).
 
 The pass is sequential in a fixed order: body i ascending, its wall contact first, then its
 partners j > i ascending; repeated ``contact_passes`` times (Gauss-Seidel). Then the
@@ -20,8 +21,15 @@ import taichi as ti
 
 from .broad import outran
 from .discs import cross2
+from .effects import IMPULSE_LAW
 from .forces import contact_mass
-from .schema import Acc, Body, BodyInt, Config, Contact, Counter, Param
+from .schema import Acc, Body, BodyInt, Config, Contact, Counter, Param, law_ledgers
+
+
+def contact_law(fx):
+    """The named effect whose ``impulse`` term is the contact law's impulse, or ``None``."""
+    return next((e for e in IMPULSE_LAW if e.on(fx)), None)
+
 
 DEEP_FRACTION = 0.1  # a contact still closing by more than this many disc radii runs the pass again
 
@@ -102,79 +110,26 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
         # before the ones the impulse acts on: book the difference (docs/model.md)
         kick_vn = relative_normal(a, i, j, Body.KICK_VX, Body.KICK_VZ, Body.KICK_OM, rx1, rz1, rx2, rz2, nx, nz)
         jn = 0.0
-        dissipated = 0.0
-        offset = 0.0
-        rubbed = 0.0
-        if ti.static(fx.friction):
-            jn, dissipated, rubbed, offset = coulomb(
+        terms = ti.Vector(ti.static([0.0] * len(law_ledgers(fx))))
+        if ti.static(contact_law(fx) in IMPULSE_LAW):
+            jn, terms = contact_law(fx).impulse(
                 fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, kk, m1, i1, a1, m2, i2, a2, kick_vn
             )
         else:
             jn = -(1.0 + e) * vn / kk
             push(a, i, j, jn, nx, nz, m1, i1, a1, m2, i2, a2)
-            dissipated = 0.5 * (1.0 - e * e) * vn * vn / kk
-            offset = 0.5 * jn * kick_vn
+            terms = ti.Vector([0.5 * (1.0 - e * e) * vn * vn / kk, 0.5 * jn * kick_vn])
         if ti.static(defer):
-            a.cd[slot, i, Contact.DEF_COLLISION] = dissipated
-            a.cd[slot, i, Contact.DEF_OFFSET] = offset
             a.cd[slot, i, Contact.DEF_IMPULSE] = jn
-            if ti.static(fx.friction):
-                a.cd[slot, i, Contact.DEF_FRICTION] = rubbed
+            for q in ti.static(range(len(law_ledgers(fx)))):
+                a.cd[slot, i, ti.static(law_ledgers(fx)[q][1])] = terms[q]
         else:
             if j < 0:
                 a.acc[Acc.WALL_IMPULSE] += jn
-            a.acc[Acc.COLLISION] += dissipated
-            a.acc[Acc.OFFSET] += offset
             a.acc[Acc.IMPULSE] += jn
-            if ti.static(fx.friction):
-                a.acc[Acc.FRICTION] += rubbed
+            for q in ti.static(range(len(law_ledgers(fx)))):
+                a.acc[ti.static(law_ledgers(fx)[q][0])] += terms[q]
             a.cnt[Counter.IMPULSES] += 1  # deferred: counted by book (no atomics in the islands' loop)
-
-
-@ti.func
-def coulomb(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, knn, m1, i1, c1n, m2, i2, c2n, kick_vn):
-    """The impulse ``P = J_n n + J_t t`` of Newton's restitution with Coulomb friction
-    (effect ``friction``, :mod:`.effects.friction`; derived in docs/model.md), applied to
-    the pair: the contact point's relative velocity ``u = (v_n, v_t)`` changes by ``K P``,
-    ``K`` the 2x2 effective-mass matrix of the point (``K_nt`` couples the two directions
-    at an off-centre contact). ``v_n' = -e v_n`` always; the contact sticks (``v_t' = 0``)
-    when that impulse lies in the cone ``|J_t| <= mu J_n``, else it slides along the cone's
-    edge on that side. Returns ``(J_n, the normal impulse's dissipation, the tangential
-    impulse's, the half-kick offset)``: each impulse's work at its direction's mean
-    velocity, ``-J (v + v') / 2``, which sum to the kinetic energy lost."""
-    tx = -nz
-    tz = nx
-    ktt, _m1, _i1, c1t, _m2, _i2, c2t = pair_mass(fx, a, i, j, rx1, rz1, rx2, rz2, tx, tz)
-    knt = c1n * c1t / i1
-    if j >= 0:
-        knt += c2n * c2t / i2
-    vt = relative_normal(a, i, j, Body.VX, Body.VZ, Body.OM, rx1, rz1, rx2, rz2, tx, tz)
-    mu = a.par[Param.FRICTION]
-    dvn = -(1.0 + e) * vn  # the normal velocity change restitution asks for
-    # stick: K P = (dvn, -v_t), solved through the tangential Schur complement (> 0: K is positive definite)
-    jt = -(vt + knt * dvn / knn) / (ktt - knt * knt / knn)
-    jn = (dvn - knt * jt) / knn
-    if ti.abs(jt) > mu * jn:  # outside the cone: slide on its edge on jt's side (mu = 0: the frictionless J_n)
-        side = 1.0 if jt > 0 else -1.0
-        jn = dvn / (knn + side * mu * knt)  # > 0 here: the stick impulse lies outside the cone on this side
-        jt = side * mu * jn
-    px = jn * nx + jt * tx
-    pz = jn * nz + jt * tz
-    b = ti.static(a.b)
-    b[i, Body.VX] += px / m1
-    b[i, Body.VZ] += pz / m1
-    b[i, Body.OM] += (c1n * jn + c1t * jt) / i1
-    if j >= 0:
-        b[j, Body.VX] -= px / m2
-        b[j, Body.VZ] -= pz / m2
-        b[j, Body.OM] -= (c2n * jn + c2t * jt) / i2
-    vn_after = vn + knn * jn + knt * jt
-    vt_after = vt + knt * jn + ktt * jt
-    collision = -0.5 * jn * (vn + vn_after)
-    if jt == 0.0:  # the frictionless impulse (mu = 0, or no sliding to stop): its ledger's bits too
-        collision = 0.5 * (1.0 - e * e) * vn * vn / knn
-    kick_vt = relative_normal(a, i, j, Body.KICK_VX, Body.KICK_VZ, Body.KICK_OM, rx1, rz1, rx2, rz2, tx, tz)
-    return jn, collision, -0.5 * jt * (vt + vt_after), 0.5 * jn * kick_vn + 0.5 * jt * kick_vt
 
 
 @ti.func
@@ -244,11 +199,9 @@ def book_one(fx: ti.template(), a: ti.template(), s, i, wall: ti.template()):
     if jn > 0:  # an impulse was applied (J > 0 whenever one is)
         if ti.static(wall):
             a.acc[Acc.WALL_IMPULSE] += jn
-        a.acc[Acc.COLLISION] += cd[s, i, Contact.DEF_COLLISION]
-        a.acc[Acc.OFFSET] += cd[s, i, Contact.DEF_OFFSET]
         a.acc[Acc.IMPULSE] += jn
-        if ti.static(fx.friction):
-            a.acc[Acc.FRICTION] += cd[s, i, Contact.DEF_FRICTION]
+        for q in ti.static(range(len(law_ledgers(fx)))):
+            a.acc[ti.static(law_ledgers(fx)[q][0])] += cd[s, i, ti.static(law_ledgers(fx)[q][1])]
         a.cnt[Counter.IMPULSES] += 1
         cd[s, i, Contact.DEF_IMPULSE] = 0.0
 

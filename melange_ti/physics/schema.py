@@ -38,8 +38,49 @@ from __future__ import annotations
 import dataclasses
 from typing import NamedTuple
 
-from .columns import Acc, Body, BodyInt, Cell, Column, Config, Contact, Counter, E, ListPose, Param, Scratch, Table, Wave
-from .effects import REGISTRY
+from .columns import Column, E, Table
+from .effects import OWNERS, REGISTRY
+
+
+class Body:
+    """Columns of ``b`` (bodies): filled by :mod:`.schema`."""
+
+
+class BodyInt:
+    """Columns of ``bi`` (body_ints)."""
+
+
+class Contact:
+    """Columns of ``cd`` (contacts)."""
+
+
+class ListPose:
+    """Columns of ``nr`` (list_poses)."""
+
+
+class Cell:
+    """Columns of ``cells``."""
+
+
+class Param:
+    """Slots of ``par`` (params)."""
+
+
+class Scratch:
+    """Slots of ``scr`` (scratch)."""
+
+
+class Config:
+    """Slots of ``cfg`` (config)."""
+
+
+class Counter:
+    """Slots of ``cnt`` (counters)."""
+
+
+class Acc:
+    """Slots of ``acc`` (accumulators)."""
+
 
 LINE_COLUMNS = 8  # 64-byte cache line of f64 columns
 
@@ -147,8 +188,13 @@ CONTACTS = Table(
         Column("DEF_COLLISION", "scratch", E, "islands: the impulse's own dissipation, until booked"),
         Column("DEF_OFFSET", "scratch", E, "islands: the impulse's half-kick offset, until booked"),
         Column("DEF_IMPULSE", "scratch", "rho_w w^2 sqrt(g w)", "islands: the impulse J (0: none or booked)"),
-        # allocated only when the scene names friction (contact_width)
-        Column("DEF_FRICTION", "scratch", E, "islands: the friction impulse's dissipation, until booked", owner="friction"),
+        # an effect's ledgers of the contact law (Effect.law_ledgers), allocated only when the
+        # scene names it (contact_width)
+        *(
+            Column(f"DEF_{c.name}", "scratch", c.units, f"islands: the impulse's share of {c.output}, until booked", owner=e.name)
+            for e in REGISTRY
+            for c in e.law_ledgers
+        ),
     ),
     Contact,
 )
@@ -211,8 +257,7 @@ CONFIG = Table(
         Column("DISCS", "config", "1", "discs per iceberg"),
         Column("LISTS", "config", "1", "1 if the narrow phase keeps candidate lists"),
         Column("GROUPS", "config", "1", "parallel form without islands: contiguous groups the sequential passes split into"),
-        Column("WAVE_CELLS", "config", "1", "waves: cells of the wave grid, M (a power of 2; 0 without waves)"),
-        Column("WAVE_LOG", "config", "1", "waves: log2 of the transform's length 2M"),
+        *(dataclasses.replace(c, owner=e.name) for e in REGISTRY for c in e.config),
     ),
     Config,
 )
@@ -268,64 +313,9 @@ ACCUMULATORS = Table(
         ),
         Column("WALL_IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of impulses from the wall", "wall_impulse"),
         Column("IMPULSE", "ledger", "rho_w w^2 sqrt(g w)", "sum of all impulses", "impulse_sum"),
-        Column(
-            "FRICTION",
-            "ledger",
-            E,
-            "energy removed by friction impulses, -J_t (v_t + J_t K_t / 2) each (0 without the friction effect)",
-            "friction_dissipated",
-            owner="friction",
-            budget=True,
-            since=4,
-        ),
-        Column(
-            "WAVE_ABSORBED",
-            "ledger",
-            E,
-            "wave energy removed by the absorbing layer at the open end (0 without the waves effect)",
-            "wave_absorbed",
-            owner="waves",
-            budget=True,
-            since=5,
-        ),
+        *(dataclasses.replace(c, owner=e.name) for e in REGISTRY for c in (*e.law_ledgers, *e.run_ledgers)),
     ),
     Acc,
-)
-
-WAVES = Table(
-    "waves",
-    "wv",
-    "real",
-    "(2 M, Wave.SIZE)",
-    "the wave grid (waves effect; one row without it): cell j's surface at row j < M, the cosine "
-    "transform's work on all 2M rows (physics/waves.py)",
-    (
-        Column("ETA", "state", "w", "sea surface height above the still water line at the cell's centre", "eta"),
-        Column("PHI", "state", "w sqrt(g w)", "velocity potential at the surface"),
-        Column("GPHI", "cache", "w / sqrt(w/g)", "G phi, the surface's vertical velocity without sources (set each step)"),
-        Column("SRC", "scratch", "w", "water the icebergs displaced into the cell this step"),
-        Column("SPONGE", "constant", "1 / sqrt(w/g)", "relaxation rate of the absorbing layer"),
-        Column("KT", "constant", "1 / w", "row m: k_m tanh(k_m H) of cosine mode m, with the transform's scale"),
-        Column(
-            "AT",
-            "constant",
-            "1",
-            "row m: cosh(k_m (H - d)) / cosh(k_m H), the wave's pressure at depth d (wave_pressure_depth), with the "
-            "transform's scale",
-        ),
-        Column("ETA_P", "cache", "w", "the surface filtered to the depth of the icebergs' pressure, A eta"),
-        Column("SRC_P", "scratch", "w", "the displaced water filtered the same way, A q"),
-        Column("CR", "constant", "1", "row m: cos(pi m / 2M)"),
-        Column("CI", "constant", "1", "row m: sin(pi m / 2M)"),
-        Column("TWR", "constant", "1", "row k < M: cos(2 pi k / 2M), the transform's twiddles"),
-        Column("TWI", "constant", "1", "row k < M: -sin(2 pi k / 2M)"),
-        Column("REV", "constant", "1", "row n < 2M: n with its log2(2M) bits reversed (the FFT's load order)"),
-        Column("RE", "scratch", "1", "the forward transform, real part"),
-        Column("IM", "scratch", "1", "the forward transform, imaginary part"),
-        Column("QR", "scratch", "1", "the inverse transform, real part"),
-        Column("QI", "scratch", "1", "the inverse transform, imaginary part"),
-    ),
-    Wave,
 )
 
 BASE_PARAMS = (
@@ -344,22 +334,25 @@ def _params(effect_params: tuple[Column, ...]) -> Table:
 class Arrays(NamedTuple):
     """The model's ndarrays, in the order every kernel takes them (see :class:`Table`).
 
-    ``nl`` (N, narrow.list_width(k), i32): candidate lists; see :mod:`.narrow`."""
+    ``nl`` (N, narrow.list_width(k), i32): candidate lists; see :mod:`.narrow`. ``own``: the
+    table of the effect that owns one (``Effect.table``, indexed with its namespace; one row
+    of one column in a model without such an effect). Every field defaults to ``None``, for
+    kernels that take a few arrays (``Arrays(cfg=cfg, own=own)``)."""
 
-    b: object
-    bi: object
-    cd: object
-    cp: object
-    nl: object
-    nr: object
-    cells: object
-    par: object
-    scr: object
-    cfg: object
-    cnt: object
-    acc: object
-    red: object  # (blocks, device.RED_WIDTH), f64: partial sums of the device's parallel parts (physics/device.py)
-    wv: object  # (2M, Wave.SIZE): the wave grid (waves effect; (1, Wave.SIZE) without it)
+    b: object = None
+    bi: object = None
+    cd: object = None
+    cp: object = None
+    nl: object = None
+    nr: object = None
+    cells: object = None
+    par: object = None
+    scr: object = None
+    cfg: object = None
+    cnt: object = None
+    acc: object = None
+    red: object = None  # (blocks, device.RED_WIDTH), f64: partial sums of the device's parallel parts (physics/device.py)
+    own: object = None  # (rows, table.size), real: the owning effect's table
 
 
 def _build():
@@ -380,7 +373,20 @@ BODIES, PARAMS = _build()
 Body.KICK_VX = Body.SHIFT_X
 Body.KICK_VZ = Body.SHIFT_Z
 Body.KICK_OM = Body.POT_START
-TABLES = (BODIES, BODY_INTS, CONTACTS, LIST_POSES, CELLS, PARAMS, SCRATCH, CONFIG, COUNTERS, ACCUMULATORS, WAVES)
+# the effects' own tables (``a.own``) after the model's
+TABLES = (
+    BODIES,
+    BODY_INTS,
+    CONTACTS,
+    LIST_POSES,
+    CELLS,
+    PARAMS,
+    SCRATCH,
+    CONFIG,
+    COUNTERS,
+    ACCUMULATORS,
+    *(e.table for e in OWNERS),
+)
 
 NAMESPACES = {t.namespace.__name__: t for t in TABLES}
 
@@ -403,6 +409,25 @@ def allocated(column: Column, fx) -> bool:
     model and of the named effects lies below :func:`body_width` by construction)."""
     return BODIES.index(column.name) < body_width(fx)
 
+
+def law_ledgers(fx) -> tuple[tuple[int, int], ...]:
+    """The contact law's energy ledgers in a model of ``fx``, as ``(Acc column, Contact column
+    of its deferred term)``: the law's own (its dissipation, the half-kick offset), then
+    each named effect's ``law_ledgers`` in the registry's order. Every form books them
+    through this one list (:func:`.impulses.resolve`, :func:`.impulses.book_one`,
+    :func:`.device.impulse_sums`)."""
+    own = ((Acc.COLLISION, Contact.DEF_COLLISION), (Acc.OFFSET, Contact.DEF_OFFSET))
+    named = tuple(
+        (ACCUMULATORS.index(c.name), CONTACTS.index(f"DEF_{c.name}"))
+        for e in REGISTRY
+        if getattr(fx, e.name)
+        for c in e.law_ledgers
+    )
+    return own + named
+
+
+# the most ledgers the contact law books in any effect set (the device's block sums' width)
+MAX_LAW_LEDGERS = 2 + sum(len(e.law_ledgers) for e in REGISTRY)
 
 # What the rest of the code derives from the roles.
 STATE_NAMES = ("x", "z", "theta", "vx", "vz", "omega")  # the file's order (docs/output.md)

@@ -31,80 +31,14 @@ by ``ti.static``: an effect the scene does not name is not compiled, and a part 
 need is not launched.
 """
 
-from collections.abc import Callable
-from dataclasses import dataclass
-
 import taichi as ti
 
-from . import broad, correction, device, forces, groups, impulses, islands, narrow, waves
-from .schema import BODIES, Arrays, Counter, allocated
+from . import broad, correction, device, forces, groups, impulses, islands, narrow
+from .effects import REGISTRY
+from .schema import ACCUMULATORS, BODIES, COUNTERS, Arrays, Counter, allocated
+from .step_parts import Part, Rounds, Stage, always, collisions, contacts  # noqa: F401  (the step's vocabulary)
 
 MAX_DETECT = 16  # rounds of (detection,) impulse pass and check per step
-
-
-def always(fx) -> bool:
-    return True
-
-
-def contacts(fx) -> bool:
-    return bool(fx.collisions or fx.wall)
-
-
-def collisions(fx) -> bool:
-    return bool(fx.collisions)
-
-
-def has_waves(fx) -> bool:
-    return bool(fx.waves)
-
-
-@dataclass(frozen=True)
-class Part:
-    """One kernel of the parallel form: ``func(fx, a)``; ``sequential`` parts run on one
-    thread (their order is the physics); ``needs(fx)``: launched only when true; ``repeat``:
-    launched again while it sets ``Counter.CHANGED``."""
-
-    func: Callable
-    sequential: bool = False
-    needs: Callable = always
-    repeat: bool = False
-
-
-@dataclass(frozen=True)
-class Stage:
-    """A named stage: ``serial(fx, a)`` is the whole stage with serial loops (inside the
-    fused kernel); ``parallel`` its parts as kernels, in turn, ``contact_passes`` times if
-    ``per_pass``; ``needs(fx)``: run only when true. Without islands
-    (``Model(islands=False)``) the parallel form runs ``without_islands`` instead (once), and
-    skips an ``islands_only`` stage; with groups (``Model(groups=G)``, G > 1: the sequential
-    passes split into G contiguous groups, :mod:`.groups`) it runs ``groups`` where given
-    (``per_pass`` as ``parallel``), the islands stage included. On a device (``Model(device_parts=True)``) it runs
-    ``device`` instead of ``parallel``, where given: no part on one thread but a walk over
-    block sums (:mod:`.device`)."""
-
-    name: str
-    serial: Callable
-    parallel: tuple[Part, ...]
-    needs: Callable = always
-    kind: str = "stage"
-    per_pass: bool = False
-    without_islands: tuple[Part, ...] | None = None
-    islands_only: bool = False
-    device: tuple[Part, ...] | None = None
-    groups: tuple[Part, ...] | None = None
-
-
-@dataclass(frozen=True)
-class Rounds:
-    """Stages repeated until the last of ``solve`` (the check) says done (``Counter.AGAIN``
-    0), at most ``limit`` times: ``detect`` runs in the first round and again after a round
-    whose check found a body faster than the reach it was searched with (``AGAIN`` 2)."""
-
-    detect: tuple[Stage, ...]
-    solve: tuple[Stage, ...]
-    limit: int
-    needs: Callable = always
-    kind: str = "rounds"
 
 
 @ti.func
@@ -207,23 +141,35 @@ CORRECTION = Stage(
     ),
 )
 
-# the waves effect: phi's kick with the icebergs', and after they moved the grid's step
-# (what they displaced, eta += dt G phi, the absorbing layer: every part parallel): physics/waves.py
-WAVE_KICK = Stage("wave_kick", waves.kick_grid, (Part(waves.kick_grid),), needs=has_waves)
-WAVES = Stage(
-    "waves",
-    waves.waves_serial,
-    (Part(waves.update), Part(waves.sponge), Part(waves.pressure_surface)),
-    needs=has_waves,
-)
 
-STEP = (
-    FORCES,
-    WAVE_KICK,
-    Rounds((BROAD, NARROW, ISLANDS), (IMPULSES, CHECK), MAX_DETECT, needs=contacts),
-    DRIFT,
-    CORRECTION,
-    WAVES,
+def _with_effects(base: tuple) -> tuple:
+    """``base`` with every effect's own stages (``Effect.stages``: ``(anchor, Stage)``) after
+    the stage they name, in the registry's order; each runs only when the scene names its
+    effect."""
+    step = list(base)
+    for effect in REGISTRY:
+        for anchor, stage in effect.stages:
+            at = next(k for k, part in enumerate(step) if getattr(part, "name", None) == anchor)
+            while at + 1 < len(step) and getattr(step[at + 1], "owner", None) is not None:
+                at += 1  # after the stages other effects put there before
+            step.insert(at + 1, stage_of(effect, stage))
+    return tuple(step)
+
+
+def stage_of(effect, stage: Stage) -> Stage:
+    """``stage``, run only when the scene names ``effect``."""
+    from dataclasses import replace
+
+    return replace(stage, needs=lambda fx: effect.on(fx) and stage.needs(fx), owner=effect.name)
+
+
+STEP = _with_effects(
+    (
+        FORCES,
+        Rounds((BROAD, NARROW, ISLANDS), (IMPULSES, CHECK), MAX_DETECT, needs=contacts),
+        DRIFT,
+        CORRECTION,
+    )
 )
 # every stage once, in the order STEP runs them
 STAGES = tuple(s for part in STEP for s in ((part,) if part.kind == "stage" else (*part.detect, *part.solve)))
@@ -272,10 +218,10 @@ def steps_serial(
     cnt: arr,
     acc: arr,
     red: arr,
-    wv: arr,
+    own: arr,
 ):
     """``steps`` whole steps in one call, every loop serial (small N: no launch costs)."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, wv))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, own))
     ti.loop_config(serialize=True)
     for _ in range(1):
         for i in range(b.shape[0]):
@@ -302,10 +248,10 @@ def run_part(
     cnt: arr,
     acc: arr,
     red: arr,
-    wv: arr,
+    own: arr,
 ):
     """One part of a stage; its outer loop over bodies is parallel unless it is sequential."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, wv))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, own))
     if ti.static(part.sequential):
         ti.loop_config(serialize=True)
         for _ in range(1):
@@ -316,17 +262,8 @@ def run_part(
 
 # ---------------------------------------------------------------- host-side helpers
 @ti.kernel
-def wave_refresh(cfg: arr, wv: arr):
-    """``GPHI = G PHI`` and ``ETA_P = A ETA`` after the host set the wave grid (the step
-    keeps them current); every loop parallel, as the step's (on a device a loop over the
-    grid on one thread would stop at the driver's cap)."""
-    a = ti.static(Arrays(None, None, None, None, None, None, None, None, None, cfg, None, None, None, wv))
-    waves.refresh(a)
-
-
-@ti.kernel
 def orient_all(b: arr):
-    a = ti.static(Arrays(b, None, None, None, None, None, None, None, None, None, None, None, None, None))
+    a = ti.static(Arrays(b=b))
     for i in range(b.shape[0]):
         forces.orient(a, i)
 
@@ -355,9 +292,12 @@ def sample_into(fx: ti.template(), a: ti.template(), out: ti.template(), out_acc
     """Sample ``k`` of ``out`` (K, N, :data:`SAMPLE_NAMES`) and copies of the run-wide
     accumulators and counters in row ``k`` of ``out_acc``, ``out_cnt``."""
     b = ti.static(a.b)
-    for c in range(a.acc.shape[0]):
+    # constant indices, as the step's own: in a fused launch Taichi may keep a slot the step
+    # writes at a constant index in a register across the loop, which a load at a variable
+    # index would not see (the waves' ledger read stale so)
+    for c in ti.static(range(ACCUMULATORS.size)):
         out_acc[k, c] = a.acc[c]
-    for c in range(a.cnt.shape[0]):
+    for c in ti.static(range(COUNTERS.size)):
         out_cnt[k, c] = a.cnt[c]
     for i in range(b.shape[0]):
         forces.orient(a, i)
@@ -377,8 +317,18 @@ def sample_into(fx: ti.template(), a: ti.template(), out: ti.template(), out_acc
 def sample_all(fx: ti.template(), b: arr, par: arr, acc: arr, cnt: arr, out: arr, out_acc: arr, out_cnt: arr):
     """Sample 0 of ``out`` (:func:`sample_into`): one launch, and no transfer where the
     outputs are the host's own numpy arrays (on the CPU Taichi writes them in place)."""
-    a = ti.static(Arrays(b, None, None, None, None, None, None, par, None, None, cnt, acc, None, None))
+    a = ti.static(Arrays(b=b, par=par, cnt=cnt, acc=acc))
     sample_into(fx, a, out, out_acc, out_cnt, 0)
+
+
+@ti.func
+def copy_own(fx: ti.template(), a: ti.template(), out_own: ti.template(), k):
+    """With an effect that owns a table, a copy of the table in ``out_own[k]``: what its
+    host side samples (``State.sample``) from, as from the table fetched after a launch."""
+    if ti.static(fx.owns):
+        for j in range(a.own.shape[0]):
+            for c in range(a.own.shape[1]):
+                out_own[k, j, c] = a.own[j, c]
 
 
 @ti.kernel
@@ -398,16 +348,18 @@ def steps_serial_sampled(
     cnt: arr,
     acc: arr,
     red: arr,
-    wv: arr,
+    own: arr,
     out: arr,
     out_acc: arr,
     out_cnt: arr,
+    out_own: arr,
 ):
-    """:func:`steps_serial` for ``segments[0]`` steps, sample 0 (:func:`sample_into`), then
+    """:func:`steps_serial` for ``segments[0]`` steps, sample 0 (:func:`sample_into`, and
+    :func:`copy_own`), then
     ``segments[1]`` steps, sample 1, ...: a run's output events between two writes in one
     launch. The same bits as one call per segment (the tilts' cos and sin are the ones
     :func:`forces.orient` would give)."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, wv))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, own))
     ti.loop_config(serialize=True)
     for _ in range(1):
         for i in range(b.shape[0]):
@@ -416,3 +368,4 @@ def steps_serial_sampled(
             for _step in range(segments[k]):
                 one_step(fx, a)
             sample_into(fx, a, out, out_acc, out_cnt, k)
+            copy_own(fx, a, out_own, k)

@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 import tomllib
 
+from ..physics.effects import BY_NAME as EFFECT_DECLS
 from ..physics.effects import NAMES as EFFECTS
 from ..physics.effects import PAPER_EFFECTS, Effects, Key
-from ..physics.effects import waves as waves_effect
 from . import keys as K
 from .errors import SceneError, error, fmt, one_line
 from .initial import Icebergs, check_geometry, check_time_step, from_run, generate_shelf
@@ -102,7 +102,7 @@ class Scene:
     def warnings(self) -> list[str]:
         """What the icebergs miss to float, said in one line (``check`` and ``run`` print it):
         a scene without gravity or buoyancy is legitimate (a free fall, a drag decay) but is
-        far more often a ``--set scene.effects=waves`` that meant ``scene.effects+=waves``."""
+        far more often a ``--set scene.effects=friction`` that meant ``scene.effects+=friction``."""
         names = self.effects.names()
         missing = [e for e in ("gravity", "buoyancy") if not getattr(self.effects, e)]
         if not missing:
@@ -191,8 +191,13 @@ def _scene_table(doc: dict) -> dict:
     for e in effects:
         if e not in EFFECTS:
             raise error("scene.effects", e, f"unknown effect (known: {', '.join(EFFECTS)})")
-    if "friction" in effects and not {"collisions", "wall"} & set(effects):
-        raise error("scene.effects", effects, "friction acts at contacts: name collisions or wall too")
+    for e in effects:  # what an effect needs named with it (Effect.requires)
+        needs = EFFECT_DECLS[e].requires
+        if needs and not set(needs) & set(effects):
+            raise error("scene.effects", effects, f"{EFFECT_DECLS[e].requires_doc}: name {' or '.join(needs)} too")
+    owners = [e for e in effects if EFFECT_DECLS[e].table is not None]
+    if len(owners) > 1:
+        raise error("scene.effects", effects, f"{' and '.join(owners)} each own a table; a scene names at most one of them")
     precision = t.get("precision", "f64")
     if precision not in ("f32", "f64"):
         raise error("scene.precision", precision, 'must be "f32" or "f64"')
@@ -277,7 +282,7 @@ def _edit_list(doc: dict, key: str, value: Any) -> None:
         raise error(key, current, "must be a list")
     names = [v.strip() for v in value.split(",") if v.strip()] if isinstance(value, str) else value
     if not names or not isinstance(names, list) or not all(isinstance(v, str) for v in names):
-        raise bad(value, "must be a name or a list of names (e.g. waves or waves,friction)")
+        raise bad(value, "must be a name or a list of names (e.g. friction or friction,form_drag)")
     if key == "scene.effects":
         for e in names:
             if e not in EFFECTS:
@@ -312,8 +317,8 @@ def _set_path(doc: dict, key: str, value: Any) -> None:
 
 
 def parse_overrides(items: list[str] | None) -> list[tuple[str, Any]]:
-    """``["time.dt=0.005", ...]`` -> ``[("time.dt", 0.005), ...]``; ``scene.effects+=waves``
-    (``-=``) -> ``("scene.effects+", "waves")``, the key written before ``=``."""
+    """``["time.dt=0.005", ...]`` -> ``[("time.dt", 0.005), ...]``; ``scene.effects+=friction``
+    (``-=``) -> ``("scene.effects+", "friction")``, the key written before ``=``."""
     out = []
     for item in items or []:
         if "=" not in item:
@@ -362,8 +367,8 @@ def from_dict(
     _whole_steps("time.duration", time.duration, time.dt)
     for key in INTERVALS:
         _whole_steps(key, getattr(parts["output"], key.split(".")[1]), time.dt)
-    if scene.effects.waves:
-        bad = waves_effect.check(scene.physics, time.dt)
+    for effect in scene.effects.named:  # the checks an effect's keys need together (Effect.check)
+        bad = effect.check(scene.physics, time.dt) if effect.check is not None else None
         if bad is not None:
             raise error(*bad)
     if geometry:

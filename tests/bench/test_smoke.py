@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 
 from melange_ti.bench import accuracy, common, effects, scaling
-from melange_ti.bench.peers import PEERS_COLUMNS, have_pymunk, potential_energy, submerged_moments
-from melange_ti.scene import DENSITY_RATIO
+from melange_ti.bench.peers import PEERS_COLUMNS
+from melange_ti.studies import have_pymunk
 
 WHICH = ("scaling", "accuracy", "effects", "peers")
 COLUMNS = {"accuracy": accuracy.ACCURACY_COLUMNS, "effects": effects.EFFECTS_COLUMNS, "peers": PEERS_COLUMNS}
@@ -135,23 +135,6 @@ def test_quick_peers_content(quick_runs):
 
 
 # ---------------------------------------------------------------------------- helpers, no Taichi
-def test_numpy_hydrostatics_against_closed_forms():
-    r = DENSITY_RATIO
-    z_up = -r * 1.4 + 0.7  # upright 1 x 1.4 in equilibrium: draft r h
-    a, sx, _ = submerged_moments(np.array([z_up, -10.0, 10.0]), np.array([0.0, 0.3, 0.3]), 0.5, 0.7)
-    assert a == pytest.approx([r * 1.4, 1.4, 0.0], abs=1e-12)
-    assert sx == pytest.approx([0.0, 0.0, 0.0], abs=1e-12)
-    # a square at 45 degrees centred on the water line: half of it wet, centroid below the centre
-    a, sx, sz = submerged_moments(np.array([0.0]), np.array([math.pi / 4]), 0.5, 0.5)
-    assert a[0] == pytest.approx(0.5)
-    assert sx[0] == pytest.approx(0.0, abs=1e-12)
-    assert sz[0] / a[0] == pytest.approx(-math.sqrt(2) / 6)
-    # capsize energy, upright to flat: 0.5 r (1 - r) w h (h - w)
-    u_up = potential_energy(np.array([z_up]), np.array([0.0]), 1.0, 1.4, r)
-    u_flat = potential_energy(np.array([-r + 0.5]), np.array([math.pi / 2]), 1.0, 1.4, r)
-    assert (u_up - u_flat)[0] == pytest.approx(0.5 * r * (1 - r) * 1.4 * 0.4, rel=1e-12)
-
-
 def test_pareto_fit_and_tile():
     front = accuracy._pareto([(1.0, 5.0), (2.0, 1.0), (3.0, 3.0), (0.5, float("inf")), (2.0, 1.0)])
     assert front == [True, True, False, False, True]
@@ -173,17 +156,3 @@ def test_pareto_fit_and_tile():
     state["theta"] = np.array([0.0, math.pi / 2])  # the second one lying flat: 1.4 wide
     tiled = common.tile(state, 4)
     assert tiled["x"][2] - 0.5 == pytest.approx(1.7 + 0.7 + 0.1)
-
-
-@pytest.mark.skipif(not have_pymunk(), reason="pymunk not installed (optional: melange_ti[peers])")
-def test_pymunk_peer_floats_in_equilibrium():
-    from melange_ti.bench.peers import PymunkMelange
-
-    r = DENSITY_RATIO
-    z_eq = -r * 1.0 + 0.5  # the 1.4 x 1 block lying flat: stable
-    st = {k: np.zeros(1) for k in ("x", "theta", "vx", "vz", "omega")}
-    st.update(z=np.array([z_eq]), width=np.array([1.4]), thickness=np.array([1.0]))
-    sim = PymunkMelange(st, wall_x=None)
-    sim.advance(200)
-    s = sim.state()
-    assert abs(s["z"][0] - z_eq) < 1e-9 and abs(s["theta"][0]) < 1e-12

@@ -26,6 +26,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from melange_ti import scene as scene_mod
+from melange_ti.energy import total_energy
 from melange_ti.geometry import disc_local
 from melange_ti.model import Model
 from melange_ti.physics.schema import STATE_NAMES as STATE  # noqa: E402
@@ -441,7 +442,7 @@ def run_hard(m, sc, state, steps, every, order=True, depth=1.0):
     k = m.constants()
     m.set_state(state)
     s = m.sample()
-    e0 = s["kinetic"].sum() + s["potential"].sum()
+    e0 = total_energy(s)
     bounds = {
         "interpenetration": depth * geo.r.min(),
         "wall penetration": depth * geo.r.min(),
@@ -459,7 +460,7 @@ def run_hard(m, sc, state, steps, every, order=True, depth=1.0):
         now = {
             "interpenetration": geo.penetration(s),
             "wall penetration": geo.wall_penetration(s, sc.physics.wall_x) if sc.effects.wall else -np.inf,
-            "energy rise": s["kinetic"].sum() + s["potential"].sum() - e0,
+            "energy rise": total_energy(s) - e0,
         }
         for key, value in now.items():
             worst[key] = max(worst[key], value)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import pytest
 
 import melange_ti as mt
+from melange_ti.energy import total_energy
 from melange_ti.model import Model
 from melange_ti.physics.schema import ENERGY_LEDGERS
 
@@ -32,7 +33,7 @@ def _budget(restitution: float, dt: float = 0.01, duration: float = 150.0):
     s = m.sample()
     tot = m.totals()
     ledgers = {name: float(s[name].sum()) if name in s else float(getattr(tot, name)) for name in ENERGY_LEDGERS}
-    lost = (s0["kinetic"].sum() + s0["potential"].sum()) - (s["kinetic"].sum() + s["potential"].sum())
+    lost = total_energy(s0) - total_energy(s)
     released = s0["potential"].sum() - s["potential"].sum()
     return lost, released, ledgers, tot
 

@@ -48,9 +48,9 @@ def group_velocity(k: float, depth: float) -> float:
 
 
 def test_grid_is_a_power_of_two_no_coarser_than_asked():
-    cells, dx = waves_effect.grid(0.0, 600.0, 0.25)
+    cells, dx = waves_effect.cells_and_spacing(0.0, 600.0, 0.25)
     assert cells == 4096 and dx == pytest.approx(600.0 / 4096) and dx <= 0.25
-    assert waves_effect.grid(-2.0, 62.0, 0.125) == (512, 0.125)
+    assert waves_effect.cells_and_spacing(-2.0, 62.0, 0.125) == (512, 0.125)
 
 
 @pytest.mark.parametrize("kh", [0.2, 1.0, 3.0, 6.0])
@@ -62,10 +62,10 @@ def test_standing_wave_oscillates_at_the_finite_depth_frequency(kh):
     model = basin(depth, length, 0.125)
     mode = round(kh / depth * length / math.pi)
     k = mode * math.pi / length
-    x = model.wave_x()
+    x = model.effect("waves").x()
     shape = np.cos(k * x)
     a0 = 0.01
-    model.set_wave_state(a0 * shape)
+    model.effect("waves").set_surface(a0 * shape)
     w = omega(k, depth)
     dt = model.scene.time.dt
     done = 0
@@ -73,7 +73,7 @@ def test_standing_wave_oscillates_at_the_finite_depth_frequency(kh):
         steps = round(frac * 2 * math.pi / w / dt)
         model.advance(steps - done)
         done = steps
-        eta = model.wave_state()["eta"]
+        eta = model.effect("waves").surface()["eta"]
         amp = float(eta @ shape / (shape @ shape))
         th = math.acos(1 - (w * dt) ** 2 / 2)
         c = -((w * dt) ** 2) / (2 * math.sin(th))
@@ -85,8 +85,10 @@ def test_standing_wave_oscillates_at_the_finite_depth_frequency(kh):
 
 def modified_energy(model: Model) -> float:
     """``E_w - dt/2 rho int eta G phi``: what symplectic Euler conserves exactly on the waves alone."""
-    s = model.wave_state()
-    return model.wave_energy() - 0.5 * model.scene.time.dt * model.wave_dx * float(np.dot(s["eta"], s["g_phi"]))
+    s = model.effect("waves").surface()
+    return model.effect("waves").energy() - 0.5 * model.scene.time.dt * model.effect("waves").dx * float(
+        np.dot(s["eta"], s["g_phi"])
+    )
 
 
 def test_energy_is_conserved_between_reflecting_ends_to_first_order_in_dt():
@@ -100,21 +102,21 @@ def test_energy_is_conserved_between_reflecting_ends_to_first_order_in_dt():
     spread = []
     for dt in (0.04, 0.02):
         model = basin(3.0, 40.0, 0.125, dt=dt)
-        x = model.wave_x()
+        x = model.effect("waves").x()
         eta0 = 0.02 * np.exp(-(((x - 13.0) / 1.5) ** 2))
-        model.set_wave_state(eta0)
+        model.effect("waves").set_surface(eta0)
         n = len(x)
         # the grid's cosine modes (orthonormal DCT-II), their frequencies and energies at rest
         m = np.arange(n)
         basis = np.cos(np.pi * np.outer(m, m + 0.5) / n) * np.where(m == 0, math.sqrt(1 / n), math.sqrt(2 / n))[:, None]
-        k = np.pi * m / (n * model.wave_dx)
+        k = np.pi * m / (n * model.effect("waves").dx)
         w = np.sqrt(k * np.tanh(k * 3.0))
-        model.set_wave_state(eta0, eta0)  # the model's G is diagonal in these modes, with omega^2
+        model.effect("waves").set_surface(eta0, eta0)  # the model's G is diagonal in these modes, with omega^2
         g_phi = basis.T @ (w**2 * (basis @ eta0))
-        np.testing.assert_allclose(model.wave_state()["g_phi"], g_phi, rtol=0, atol=1e-12 * eta0.max())
-        model.set_wave_state(eta0)
-        modes = 0.5 * model.wave_dx * (basis @ eta0) ** 2
-        e0 = model.wave_energy()
+        np.testing.assert_allclose(model.effect("waves").surface()["g_phi"], g_phi, rtol=0, atol=1e-12 * eta0.max())
+        model.effect("waves").set_surface(eta0)
+        modes = 0.5 * model.effect("waves").dx * (basis @ eta0) ** 2
+        e0 = model.effect("waves").energy()
         assert modes.sum() == pytest.approx(e0, rel=1e-12)
         # the modes' energies E_m(t) stay within 1 / (1 - omega_m dt / 2) of their modified ones
         wander = 0.5 * dt * float(np.sum(w * modes / (1 - 0.5 * w * dt))) / e0
@@ -122,7 +124,7 @@ def test_energy_is_conserved_between_reflecting_ends_to_first_order_in_dt():
         energies, invariant = [], []
         for _ in range(60):  # 60 time units: several crossings of the basin
             model.advance(round(1.0 / dt))
-            energies.append(model.wave_energy())
+            energies.append(model.effect("waves").energy())
             invariant.append(modified_energy(model))
         dev = np.abs(np.array(energies) / e0 - 1)
         spread.append(dev.max())
@@ -136,15 +138,15 @@ def test_packet_travels_at_the_group_velocity():
     travel at c_g: the right one's centre of energy moves at c_g within 2%."""
     depth = 2.0
     model = basin(depth, 256.0, 0.125)
-    x = model.wave_x()
+    x = model.effect("waves").x()
     k = 0.5
     x0 = 60.0
-    model.set_wave_state(0.01 * np.exp(-(((x - x0) / 12.0) ** 2)) * np.cos(k * (x - x0)))
+    model.effect("waves").set_surface(0.01 * np.exp(-(((x - x0) / 12.0) ** 2)) * np.cos(k * (x - x0)))
     cg = group_velocity(k, depth)
     centres = []
     for steps in (3000, 6000):  # t = 30 and t = 60
         model.advance(steps - (3000 if centres else 0))
-        eta = model.wave_state()["eta"]
+        eta = model.effect("waves").surface()["eta"]
         right = x > x0
         e2 = eta[right] ** 2
         centres.append(float(np.sum(x[right] * e2) / np.sum(e2)))
@@ -158,14 +160,14 @@ def test_absorbing_layer_takes_what_reaches_it_and_books_it():
     """A packet runs into the absorbing layer at the open end: what leaves the grid's energy
     is what ``wave_absorbed`` booked, and almost nothing comes back."""
     model = basin(2.0, 160.0, 0.25, sponge=40.0)
-    x = model.wave_x()
+    x = model.effect("waves").x()
     k = 1.0
     envelope = 0.01 * np.exp(-(((x - 90.0) / 6.0) ** 2))
     # a packet travelling right: eta = a cos(k x), phi = (g a / omega) sin(k x)
-    model.set_wave_state(envelope * np.cos(k * (x - 90.0)), envelope / omega(k, 2.0) * np.sin(k * (x - 90.0)))
-    e0 = model.wave_energy()
+    model.effect("waves").set_surface(envelope * np.cos(k * (x - 90.0)), envelope / omega(k, 2.0) * np.sin(k * (x - 90.0)))
+    e0 = model.effect("waves").energy()
     model.advance(20000)  # t = 200: at c_g = 0.56 it crosses the layer and back
-    e1 = model.wave_energy()
+    e1 = model.effect("waves").energy()
     absorbed = model.totals().wave_absorbed
     assert e1 < 0.01 * e0, e1 / e0
     assert e1 + absorbed == pytest.approx(e0, rel=2e-3)
@@ -231,7 +233,7 @@ def test_heaving_iceberg_radiates_and_what_it_loses_the_waves_carry(heaves):
         moving = runs[tuple(WAVES_ONLY), depth][2]
         left[depth] = body_energy(moving) - rest
         assert left[depth] < 0.9 * heave0, (depth, left[depth] / heave0)  # radiated within 40 time units
-        carried = moving.wave_energy() + moving.totals().wave_absorbed
+        carried = moving.effect("waves").energy() + moving.totals().wave_absorbed
         assert heave0 - left[depth] == pytest.approx(carried, abs=1e-3 * heave0)
     assert left[1.0] > 2 * left[0.0], left
 
@@ -280,7 +282,7 @@ def test_capsize_budget_closes_with_waves():
     assert abs(theta) > 1.0, "the block must have capsized"
     released = capsize_energy(R, 1.0, 1.4)
     lost = e0 - body_energy(model)
-    waves = model.wave_energy() + model.totals().wave_absorbed
+    waves = model.effect("waves").energy() + model.totals().wave_absorbed
     assert waves > 0.05 * released  # a capsize makes waves
     assert abs(lost - waves) < 1e-3 * released, (lost - waves) / released
 
@@ -296,7 +298,9 @@ def test_waves_are_bit_identical_across_kernel_forms():
         m = Model(sc, mode=mode, islands=islands, groups=groups)
         m.advance(600)
         t = m.totals()
-        results.append((m.state(), m.wave_state()["eta"], (t.collision_dissipated, t.correction_work, t.wave_absorbed)))
+        results.append(
+            (m.state(), m.effect("waves").surface()["eta"], (t.collision_dissipated, t.correction_work, t.wave_absorbed))
+        )
     s0, eta0, t0 = results[0]
     assert np.max(np.abs(eta0)) > 1e-4  # the surface moved
     for s, eta, tot in results[1:]:
@@ -342,7 +346,7 @@ def test_checkpoint_keeps_the_sea_and_resumes_bit_for_bit():
     resumed.advance(150)
     for k, v in whole.state().items():
         assert resumed.state()[k].tobytes() == v.tobytes(), k
-    assert resumed.wave_state()["eta"].tobytes() == whole.wave_state()["eta"].tobytes()
+    assert resumed.effect("waves").surface()["eta"].tobytes() == whole.effect("waves").surface()["eta"].tobytes()
     assert resumed.totals().wave_absorbed == whole.totals().wave_absorbed
 
 

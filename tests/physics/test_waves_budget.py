@@ -40,7 +40,7 @@ def residuals(model: Model, duration: float, every: int = 20) -> tuple[np.ndarra
 
     def grab():
         s, totals = model.sample_with_totals()
-        w = model.wave_state()
+        w = model.effect("waves").surface()
         v = np.array([s["vx"][0], s["vz"][0], s["omega"][0]])
         return v, float(np.sum(s["potential"])), w, totals.wave_absorbed
 
@@ -52,7 +52,7 @@ def residuals(model: Model, duration: float, every: int = 20) -> tuple[np.ndarra
         g_phi = 0.5 * (before[2]["g_phi"] + after[2]["g_phi"])
         kinetic = 0.5 * mass * (v[0] ** 2 + v[1] ** 2) + 0.5 * inertia * v[2] ** 2
         eta = before[2]["eta"]
-        return kinetic + before[1] + 0.5 * model.wave_dx * (eta @ eta + phi @ g_phi)
+        return kinetic + before[1] + 0.5 * model.effect("waves").dx * (eta @ eta + phi @ g_phi)
 
     released = capsize_energy(R, 1.0, THICK)
     steps = round(duration / model.scene.time.dt)
@@ -68,7 +68,7 @@ def residuals(model: Model, duration: float, every: int = 20) -> tuple[np.ndarra
         out.append((e0 - energy(before, after) - before[3]) / released)
     theta = float(model.state()["theta"][0])
     assert abs(theta) > 1.5, "the block must have capsized"
-    return np.array(out), (model.wave_energy() + model.totals().wave_absorbed) / released
+    return np.array(out), (model.effect("waves").energy() + model.totals().wave_absorbed) / released
 
 
 def test_largest_residual_over_a_capsize_with_waves_is_within_a_thousandth():

@@ -14,7 +14,7 @@ The order is the order in which forces are summed, and so part of the results' b
 from dataclasses import make_dataclass
 
 from . import added_mass, buoyancy, collisions, drag, form_drag, friction, gravity, wall, waves
-from .base import Effect, Key
+from .base import Dataset, Effect, Key, Quantity, State
 
 REGISTRY: tuple[Effect, ...] = (
     gravity.EFFECT,
@@ -35,6 +35,8 @@ DAMPERS = tuple(e for e in REGISTRY if "damp" in e.terms)
 ADDED = tuple(e for e in REGISTRY if "added_inertia" in e.terms)
 POST_DRIFT = tuple(e for e in REGISTRY if "post_drift" in e.terms)
 POTENTIALS = tuple(e for e in REGISTRY if "potential" in e.terms)
+IMPULSE_LAW = tuple(e for e in REGISTRY if "impulse" in e.terms)  # effects that replace the contact law's impulse
+OWNERS = tuple(e for e in REGISTRY if e.table is not None)  # effects that own a table (``a.own``)
 
 
 def _contacts(self) -> bool:
@@ -46,11 +48,28 @@ def _names(self) -> list[str]:
     return [n for n in NAMES if getattr(self, n)]
 
 
+def _owner(self) -> Effect | None:
+    """The named effect that owns a table (``a.own``), or ``None`` (at most one: the scene's check)."""
+    return next((e for e in OWNERS if getattr(self, e.name)), None)
+
+
+def _named(self) -> tuple[Effect, ...]:
+    """The named effects' declarations, in the registry's order."""
+    return tuple(e for e in REGISTRY if getattr(self, e.name))
+
+
 Effects = make_dataclass(
     "Effects",
     [(n, bool, False) for n in NAMES],
     frozen=True,
-    namespace={"contacts": property(_contacts), "names": _names, "__doc__": "Which effects are compiled into the model."},
+    namespace={
+        "contacts": property(_contacts),
+        "owner": property(_owner),
+        "owns": property(lambda self: _owner(self) is not None),
+        "named": property(_named),
+        "names": _names,
+        "__doc__": "Which effects are compiled into the model.",
+    },
 )
 Effects.__module__ = __name__
 
@@ -67,4 +86,9 @@ __all__ = [
     "ADDED",
     "POST_DRIFT",
     "POTENTIALS",
+    "OWNERS",
+    "IMPULSE_LAW",
+    "Dataset",
+    "Quantity",
+    "State",
 ]

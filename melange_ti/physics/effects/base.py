@@ -7,12 +7,12 @@ from it work where Taichi is not installed; the terms are ``@ti.func``s in
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Any
 
-from ..columns import Column
+from ..columns import Column, Table
 
 
 @dataclass(frozen=True)
@@ -59,6 +59,30 @@ class Quantity:
 
 
 @dataclass(frozen=True)
+class Dataset:
+    """A variable an effect writes to the run file: ``path`` in the file (``snapshots/eta``:
+    one row per snapshot, after ``time``; another group's, e.g. ``waves/x``: written once
+    when the file is made), its dimensions after ``time`` (``("wave_cell",)``; a dimension an
+    effect declares is a variable at the file's root with its index, as ``iceberg``), units
+    and meaning; ``coordinate``: the name under which :func:`melange_ti.open_run` attaches it
+    to every group with its dimension (``wave_x``), or ``""``."""
+
+    path: str
+    dims: tuple[str, ...]
+    units: str
+    doc: str
+    coordinate: str = ""
+
+    @property
+    def group(self) -> str:
+        return self.path.split("/")[0]
+
+    @property
+    def name(self) -> str:
+        return self.path.split("/")[1]
+
+
+@dataclass(frozen=True)
 class Effect:
     """One physical term a scene may name in ``scene.effects``.
 
@@ -83,12 +107,45 @@ class Effect:
                                                added inertia
     ``post_drift(a, i)``                       after the position update
     ``potential(a, i) -> U``                   its potential energy of iceberg i
+    ``impulse(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, K_nn, m1, I1, c1n, m2, I2, c2n, kick_vn)
+       -> (J_n, ti.Vector(ledger terms))``     the contact law's impulse (at most one named
+                                               effect has it; without, the frictionless law
+                                               of :func:`..impulses.resolve`), applied to the
+                                               pair; the terms of the law's ledgers, the
+                                               law's own then its ``law_ledgers``
 
     ``beyond_paper``: the effect is not in the paper's model; its columns go after the
     paper's (a line of their own), so a scene that does not name it keeps the paper's row.
 
+    An effect may own state beyond the icebergs' rows (the waves' grid), declared here:
+
+    ``table``        its own array (a :class:`Table`, kernels index it as ``a.own`` with the
+                     table's namespace; one effect that owns a table per scene)
+    ``config``       its integer settings in ``cfg`` (filled by its ``State``)
+    ``run_ledgers``  its run-wide ledgers in ``acc`` (f64; a ``budget`` one is booked in the
+                     energy budget, with its diagnostic, file variable and checkpoint)
+    ``law_ledgers``  run-wide ledgers the contact law books per impulse (its ``impulse``
+                     term returns their terms after the law's own): each also gets a
+                     deferred column in the contacts (``DEF_NAME``), and every form books
+                     them through one path (:func:`melange_ti.physics.schema.law_ledgers`)
+    ``held``         the energies it holds (:class:`Quantity`), part of ``E``: a diagnostic
+                     each, summed by :func:`melange_ti.energy.total_energy`
+    ``datasets``     the variables it writes to the run file (:class:`Dataset`)
+    ``dims``         the file dimensions it declares, ``{name: meaning}``
+    ``check``        ``check(physics, dt) -> (key, value, accepts) | None``: the scene checks
+                     its keys need beyond each key's own (called when a scene names it)
+    ``requires``     effects of which the scene must name at least one with it, and
+    ``requires_doc`` why (the refusal's words)
+    ``state``        ``state(scene, np_real) -> State``: its host side (:class:`State`),
+                     made by the model only when the scene names the effect
+    ``kernels``      ``kernels() -> module``: imports its Taichi side, the module holding its
+                     terms (``force`` ... by name) and ``STAGES``: ``((anchor, Stage), ...)``,
+                     each stage run after the step's stage ``anchor`` (``"forces"``, ...,
+                     ``"correction"``: :data:`melange_ti.physics.stages.STEP`)
+
     A term is compiled into the kernels only when the scene names the effect
-    (``ti.static``), so an effect not named costs nothing.
+    (``ti.static``), so an effect not named costs nothing; an effect's table, datasets,
+    checkpoint entry and stages exist only in a model of a scene that names it.
     """
 
     name: str
@@ -100,12 +157,25 @@ class Effect:
     torque: bool = False
     horizontal: bool = False
     beyond_paper: bool = False
+    table: Table | None = None
+    config: tuple[Column, ...] = ()
+    run_ledgers: tuple[Column, ...] = ()
+    law_ledgers: tuple[Column, ...] = ()
     held: tuple[Quantity, ...] = ()
+    datasets: tuple[Dataset, ...] = ()
+    dims: tuple[tuple[str, str], ...] = ()
+    check: Callable | None = None
+    requires: tuple[str, ...] = ()
+    requires_doc: str = ""
+    state: Callable | None = None
+    kernels: Callable[[], ModuleType] | None = None
 
     def __post_init__(self):
         unknown = set(self.terms) - set(TERMS)
         if unknown:
             raise ValueError(f"effect {self.name}: unknown terms {sorted(unknown)} (known: {', '.join(TERMS)})")
+        if self.terms and self.kernels is None:
+            raise ValueError(f"effect {self.name}: terms {self.terms} need kernels (the module that holds them)")
 
     def on(self, fx) -> bool:
         """Whether the frozen effect set ``fx`` names this effect (use inside ``ti.static``)."""
@@ -115,13 +185,60 @@ class Effect:
         """The ``@ti.func`` ``which`` of this effect (imports Taichi), or ``None``."""
         if which not in self.terms:
             return None
-        return getattr(importlib.import_module(f"melange_ti.physics.terms.{self.name}"), which)
+        return getattr(self.kernels(), which)
+
+    @property
+    def stages(self) -> tuple:
+        """``((anchor, Stage), ...)``: the stages it adds to the step (imports Taichi)."""
+        return getattr(self.kernels(), "STAGES", ()) if self.kernels is not None else ()
 
     force = property(lambda self: self.term("force"))
     added_inertia = property(lambda self: self.term("added_inertia"))
     damp = property(lambda self: self.term("damp"))
     post_drift = property(lambda self: self.term("post_drift"))
     potential = property(lambda self: self.term("potential"))
+    impulse = property(lambda self: self.term("impulse"))
 
 
-TERMS = ("force", "added_inertia", "damp", "post_drift", "potential")
+TERMS = ("force", "added_inertia", "damp", "post_drift", "potential", "impulse")
+
+
+class State:
+    """The host side of an effect that owns state, made by the model of a scene that names
+    the effect (``Effect.state``; Oceananigans' ``materialize_free_surface``: a scene without
+    the effect has none). numpy only; the model moves the arrays.
+
+    ``rows``: rows of its table (``Effect.table``); the methods below return what the model
+    fills, writes and reads, each from the table's rows as numpy (``rows_`` below: the
+    table's content, fetched by the model or copied inside a fused launch: the same bits)."""
+
+    rows: int = 1
+    model: Any = None  # the model it belongs to (set by the model)
+
+    def params(self) -> dict[str, float]:
+        """Values of its parameter slots that no scene key gives (``{column name: value}``)."""
+        return {}
+
+    def config(self) -> dict[str, int]:
+        """Values of its ``config`` slots."""
+        return {}
+
+    def initial(self) -> Any:
+        """Its table's content at t = 0 (numpy, ``(rows, table.size)``)."""
+        raise NotImplementedError
+
+    def dims(self) -> dict[str, int]:
+        """The length of each file dimension it declares."""
+        return {}
+
+    def constants(self) -> dict[str, Any]:
+        """Its datasets written once (``{path: array}``)."""
+        return {}
+
+    def sample(self, rows_) -> dict[str, Any]:
+        """Its snapshot datasets (by name) and held energies at an output event."""
+        return {}
+
+    def refresh(self, model) -> None:
+        """After the host set its table (a checkpoint, a test): recompute what the step
+        keeps from it (a kernel of its own, on ``model.arrays``)."""

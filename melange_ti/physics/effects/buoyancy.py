@@ -2,8 +2,16 @@
 
 from .base import Effect
 
+
+def _kernels():
+    from ..terms import buoyancy
+
+    return buoyancy
+
+
 EFFECT = Effect(
     name="buoyancy",
+    kernels=_kernels,
     doc="exact hydrostatic force and torque of the submerged part of the rectangle under a flat sea surface",
     torque=True,
     terms=("force", "potential"),

@@ -1,6 +1,6 @@
 """Coulomb friction at iceberg-iceberg and wall contacts (beyond the paper).
 
-With it the contact law (:func:`..impulses.coulomb`) is Newton's restitution with Coulomb's
+With it the contact law (its ``impulse`` term, :func:`..terms.friction.impulse`) is Newton's restitution with Coulomb's
 cone, one impulse ``J = J_n n + J_t t`` (``t = (-n_z, n_x)``) solved with the contact point's
 2x2 effective-mass matrix ``K`` (``K_nt`` couples the directions at an off-centre contact):
 ``v_n' = -e v_n`` always; the contact sticks (``v_t' = 0``) when that impulse lies in the cone
@@ -14,8 +14,15 @@ so its bits, is the contact law's; ``mu = 0`` gives the frictionless impulse to 
 Derived in docs/model.md ("Contacts").
 """
 
-from ..columns import Column
+from ..columns import Column, E
 from .base import Effect, Key
+
+
+def _kernels():
+    from ..terms import friction
+
+    return friction
+
 
 EFFECT = Effect(
     name="friction",
@@ -28,4 +35,19 @@ EFFECT = Effect(
     ),
     params=(Column("FRICTION", "constant", "1", "Coulomb friction coefficient mu", source="physics.friction"),),
     beyond_paper=True,
+    terms=("impulse",),
+    kernels=_kernels,
+    law_ledgers=(
+        Column(
+            "FRICTION",
+            "ledger",
+            E,
+            "energy removed by friction impulses, -J_t (v_t + J_t K_t / 2) each (0 without the friction effect)",
+            "friction_dissipated",
+            budget=True,
+            since=4,
+        ),
+    ),
+    requires=("collisions", "wall"),
+    requires_doc="friction acts at contacts",
 )

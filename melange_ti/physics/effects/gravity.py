@@ -2,4 +2,11 @@
 
 from .base import Effect
 
-EFFECT = Effect(name="gravity", doc="force -mass * g at the centre of mass", terms=("force", "potential"))
+
+def _kernels():
+    from ..terms import gravity
+
+    return gravity
+
+
+EFFECT = Effect(name="gravity", kernels=_kernels, doc="force -mass * g at the centre of mass", terms=("force", "potential"))

@@ -2,8 +2,8 @@
 
 import taichi as ti
 
-from ..columns import Body, Param
 from ..hydrostatics import wetted
+from ..schema import Body, Param
 
 
 @ti.func

@@ -2,7 +2,7 @@
 
 import taichi as ti
 
-from ..columns import Body, Param
+from ..schema import Body, Param
 
 
 @ti.func

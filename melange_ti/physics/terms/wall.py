@@ -5,9 +5,9 @@ body's partners (the contact law of :mod:`..impulses` with infinite mass; normal
 import taichi as ti
 
 from ..broad import margin, reach
-from ..columns import Body, BodyInt, Config, Param
 from ..discs import disc_local, to_world
 from ..numerics import FAR
+from ..schema import Body, BodyInt, Config, Param
 
 
 @ti.func

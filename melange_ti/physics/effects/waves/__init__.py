@@ -46,8 +46,8 @@ over the cells.
 
 import math
 
-from ..columns import Column
-from .base import Effect, Key, Quantity
+from ...columns import Column, E, Table
+from ..base import Dataset, Effect, Key, Quantity
 
 SUB = 2  # sample points per grid cell for the coupling integrals
 SPONGE_RATE = 0.5  # largest relaxation rate of the absorbing layer, 1 / sqrt(w/g)
@@ -55,6 +55,59 @@ MAX_CELLS = 1 << 16  # largest wave grid (cells)
 # what the absorbing layer removes from each cell is rounded to a multiple of this (E) before the
 # cells' shares are added up in any order: exact while a step's total stays below 2^53 of them (8 E)
 SPONGE_Q = 2.0**-50
+
+
+class Wave:
+    """Columns of the wave grid's table (``a.own`` with the waves effect)."""
+
+
+TABLE = Table(
+    "waves",
+    "own",
+    "real",
+    "(2 M, Wave.SIZE)",
+    "the wave grid: cell j's surface at row j < M, the cosine transform's work on all 2M rows (grid.py)",
+    (
+        Column("ETA", "state", "w", "sea surface height above the still water line at the cell's centre", "eta"),
+        Column("PHI", "state", "w sqrt(g w)", "velocity potential at the surface"),
+        Column("GPHI", "cache", "w / sqrt(w/g)", "G phi, the surface's vertical velocity without sources (set each step)"),
+        Column("SRC", "scratch", "w", "water the icebergs displaced into the cell this step"),
+        Column("SPONGE", "constant", "1 / sqrt(w/g)", "relaxation rate of the absorbing layer"),
+        Column("KT", "constant", "1 / w", "row m: k_m tanh(k_m H) of cosine mode m, with the transform's scale"),
+        Column(
+            "AT",
+            "constant",
+            "1",
+            "row m: cosh(k_m (H - d)) / cosh(k_m H), the wave's pressure at depth d (wave_pressure_depth), with the "
+            "transform's scale",
+        ),
+        Column("ETA_P", "cache", "w", "the surface filtered to the depth of the icebergs' pressure, A eta"),
+        Column("SRC_P", "scratch", "w", "the displaced water filtered the same way, A q"),
+        Column("CR", "constant", "1", "row m: cos(pi m / 2M)"),
+        Column("CI", "constant", "1", "row m: sin(pi m / 2M)"),
+        Column("TWR", "constant", "1", "row k < M: cos(2 pi k / 2M), the transform's twiddles"),
+        Column("TWI", "constant", "1", "row k < M: -sin(2 pi k / 2M)"),
+        Column("REV", "constant", "1", "row n < 2M: n with its log2(2M) bits reversed (the FFT's load order)"),
+        Column("RE", "scratch", "1", "the forward transform, real part"),
+        Column("IM", "scratch", "1", "the forward transform, imaginary part"),
+        Column("QR", "scratch", "1", "the inverse transform, real part"),
+        Column("QI", "scratch", "1", "the inverse transform, imaginary part"),
+    ),
+    Wave,
+)
+
+
+def _state(scene, np_real):
+    from .host import WaveGrid
+
+    return WaveGrid(scene, np_real)
+
+
+def _kernels():
+    from . import kernels
+
+    return kernels
+
 
 EFFECT = Effect(
     name="waves",
@@ -90,18 +143,47 @@ EFFECT = Effect(
     torque=True,
     horizontal=True,
     beyond_paper=True,
+    table=TABLE,
+    config=(
+        Column("WAVE_CELLS", "config", "1", "waves: cells of the wave grid, M (a power of 2)"),
+        Column("WAVE_LOG", "config", "1", "waves: log2 of the transform's length 2M"),
+    ),
+    run_ledgers=(
+        Column(
+            "WAVE_ABSORBED",
+            "ledger",
+            E,
+            "wave energy removed by the absorbing layer at the open end (0 without the waves effect)",
+            "wave_absorbed",
+            budget=True,
+            since=5,
+        ),
+    ),
     held=(
         Quantity(
             "wave_energy",
-            "rho_w g w^3",
+            E,
             "energy of the waves, rho g / 2 int eta^2 dx + rho / 2 int phi G phi dx (0 without the waves effect)",
             since=5,
         ),
     ),
+    dims=(("wave_cell", "index of the wave grid's cell, from the wall"),),
+    datasets=(
+        Dataset("waves/x", ("wave_cell",), "w", "centre of the wave grid's cell", coordinate="wave_x"),
+        Dataset(
+            "snapshots/eta",
+            ("wave_cell",),
+            "w",
+            "sea surface height above the still water line at the cell's centre (waves effect)",
+        ),
+    ),
+    check=lambda physics, dt: check(physics, dt),
+    state=_state,
+    kernels=_kernels,
 )
 
 
-def grid(wall_x: float, wave_end: float, wave_dx: float) -> tuple[int, float]:
+def cells_and_spacing(wall_x: float, wave_end: float, wave_dx: float) -> tuple[int, float]:
     """The wave grid's cells ``M`` (the power of 2 that gives a spacing of at most
     ``wave_dx``) and its spacing, for a domain from ``wall_x`` to ``wave_end``."""
     length = wave_end - wall_x
@@ -128,7 +210,7 @@ def check(physics, dt: float) -> tuple[str, float, str] | None:
         )
     if physics.wave_sponge >= length:
         return "physics.wave_sponge", physics.wave_sponge, f"must be less than wave_end - wall_x = {length:g}"
-    cells, dx = grid(physics.wall_x, physics.wave_end, physics.wave_dx)
+    cells, dx = cells_and_spacing(physics.wall_x, physics.wave_end, physics.wave_dx)
     if cells > MAX_CELLS:
         most = length / MAX_CELLS
         return "physics.wave_dx", physics.wave_dx, f"makes more than {MAX_CELLS} wave cells; use at least {most:.4g}"

@@ -1,0 +1,95 @@
+"""The waves' host side (numpy, no Taichi): the grid's size and constants, and what an output
+event reads from it (the surface, the wave energy). Made by the model of a scene that names
+the waves (:class:`~..base.State`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..base import State
+from . import SPONGE_RATE, TABLE, Wave, cells_and_spacing
+
+
+class WaveGrid(State):
+    """The wave grid of one model: ``cells`` (M) of spacing ``dx`` from the wall; its table
+    has ``2 M`` rows (the cosine transform's work)."""
+
+    def __init__(self, scene, np_real):
+        p = self.physics = scene.physics
+        self.np_real = np_real
+        self.cells, self.dx = cells_and_spacing(p.wall_x, p.wave_end, p.wave_dx)
+        self.rows = 2 * self.cells
+
+    def params(self) -> dict[str, float]:
+        # shares of displaced water are multiples of WAVE_Q: their sums stay exact below 8
+        # (f64; 4 in f32), so the order of the additions does not matter (grid.py)
+        return {"WAVE_DX": self.dx, "WAVE_Q": 2.0**-50 if self.np_real is np.float64 else 2.0**-22}
+
+    def config(self) -> dict[str, int]:
+        return {"WAVE_CELLS": self.cells, "WAVE_LOG": (2 * self.cells).bit_length() - 1}
+
+    def x(self) -> np.ndarray:
+        """x of the cell centres."""
+        return self.physics.wall_x + (np.arange(self.cells) + 0.5) * self.dx
+
+    def initial(self) -> np.ndarray:
+        """The grid at rest, with its constants: the absorbing layer's rates, the operator's
+        symbol and the transform's twiddles (computed here, in numpy)."""
+        rows = np.zeros((self.rows, TABLE.size), dtype=np.float64)
+        m, p = self.cells, self.physics
+        x = self.x()
+        start = p.wave_end - p.wave_sponge
+        if p.wave_sponge > 0:
+            rows[:m, Wave.SPONGE] = np.where(x > start, SPONGE_RATE * ((x - start) / p.wave_sponge) ** 2, 0.0)
+        k = np.pi * np.arange(m) / (m * self.dx)
+        rows[:m, Wave.KT] = k * np.tanh(k * p.water_depth) / m
+        # cosh(k (H - d)) / cosh(k H), written without overflow; mode 0 has half the
+        # weight of the others in the inverse cosine transform
+        d, h = p.wave_pressure_depth, p.water_depth
+        rows[:m, Wave.AT] = (np.exp(-k * d) + np.exp(-k * (2 * h - d))) / (1 + np.exp(-2 * k * h)) / m
+        rows[0, Wave.AT] *= 0.5
+        rows[:m, Wave.CR] = np.cos(np.pi * np.arange(m) / (2 * m))
+        rows[:m, Wave.CI] = np.sin(np.pi * np.arange(m) / (2 * m))
+        rows[:m, Wave.TWR] = np.cos(2 * np.pi * np.arange(m) / (2 * m))
+        rows[:m, Wave.TWI] = -np.sin(2 * np.pi * np.arange(m) / (2 * m))
+        bits = (2 * m).bit_length() - 1
+        q = np.arange(2 * m)
+        rows[: 2 * m, Wave.REV] = sum(((q >> b) & 1) << (bits - 1 - b) for b in range(bits))
+        return rows.astype(self.np_real)
+
+    def dims(self) -> dict[str, int]:
+        return {"wave_cell": self.cells}
+
+    def constants(self) -> dict[str, np.ndarray]:
+        return {"waves/x": self.x()}
+
+    def surface(self, rows: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """``eta``, ``phi`` and ``g_phi`` (``G phi``) at the cell centres, from the table's rows
+        (``None``: the model's now)."""
+        rows = (self.model.own_rows() if rows is None else rows)[: self.cells]
+        return {"eta": rows[:, Wave.ETA].copy(), "phi": rows[:, Wave.PHI].copy(), "g_phi": rows[:, Wave.GPHI].copy()}
+
+    def energy(self, surface: dict[str, np.ndarray] | None = None) -> float:
+        """``rho g / 2 sum eta^2 dx + rho / 2 sum phi G phi dx``, summed in f64, of ``surface``
+        (:meth:`surface`; ``None``: the model's now)."""
+        w = {k: v.astype(np.float64) for k, v in (surface or self.surface()).items()}
+        return float(0.5 * self.dx * (np.dot(w["eta"], w["eta"]) + np.dot(w["phi"], w["g_phi"])))
+
+    def sample(self, rows: np.ndarray) -> dict:
+        w = self.surface(rows)
+        return {"eta": w["eta"], "wave_energy": np.array(self.energy(w))}
+
+    def refresh(self, model) -> None:
+        from .kernels import refresh
+
+        a = model.arrays
+        refresh(a.cfg, a.own)
+
+    # ------------------------------------------------------------ for scripts and tests
+    def set_surface(self, eta: np.ndarray, phi: np.ndarray | None = None) -> None:
+        """Set the sea surface (and the potential, default 0) at the cell centres."""
+        rows = self.model.own_rows()
+        rows[: self.cells, Wave.ETA] = eta
+        rows[: self.cells, Wave.PHI] = 0.0 if phi is None else phi
+        self.model.arrays.own.from_numpy(rows)
+        self.refresh(self.model)

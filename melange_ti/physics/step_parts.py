@@ -1,0 +1,69 @@
+"""What a step is made of: its stages (:class:`Stage`), each a serial form and parallel parts
+(:class:`Part`), and repeated rounds (:class:`Rounds`). The step itself is
+:data:`melange_ti.physics.stages.STEP`; an effect adds stages of its own
+(``Effect.kernels().STAGES``). No Taichi here: the parts' functions are the kernels'."""
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+
+def always(fx) -> bool:
+    return True
+
+
+def contacts(fx) -> bool:
+    return bool(fx.collisions or fx.wall)
+
+
+def collisions(fx) -> bool:
+    return bool(fx.collisions)
+
+
+@dataclass(frozen=True)
+class Part:
+    """One kernel of the parallel form: ``func(fx, a)``; ``sequential`` parts run on one
+    thread (their order is the physics); ``needs(fx)``: launched only when true; ``repeat``:
+    launched again while it sets ``Counter.CHANGED``."""
+
+    func: Callable
+    sequential: bool = False
+    needs: Callable = always
+    repeat: bool = False
+
+
+@dataclass(frozen=True)
+class Stage:
+    """A named stage: ``serial(fx, a)`` is the whole stage with serial loops (inside the
+    fused kernel); ``parallel`` its parts as kernels, in turn, ``contact_passes`` times if
+    ``per_pass``; ``needs(fx)``: run only when true. Without islands
+    (``Model(islands=False)``) the parallel form runs ``without_islands`` instead (once), and
+    skips an ``islands_only`` stage; with groups (``Model(groups=G)``, G > 1: the sequential
+    passes split into G contiguous groups, :mod:`.groups`) it runs ``groups`` where given
+    (``per_pass`` as ``parallel``), the islands stage included. On a device (``Model(device_parts=True)``) it runs
+    ``device`` instead of ``parallel``, where given: no part on one thread but a walk over
+    block sums (:mod:`.device`). ``owner``: the effect that added it to the step."""
+
+    name: str
+    serial: Callable
+    parallel: tuple[Part, ...]
+    needs: Callable = always
+    kind: str = "stage"
+    per_pass: bool = False
+    without_islands: tuple[Part, ...] | None = None
+    islands_only: bool = False
+    device: tuple[Part, ...] | None = None
+    groups: tuple[Part, ...] | None = None
+    owner: str | None = None  # the effect whose stage it is (None: the model's own)
+
+
+@dataclass(frozen=True)
+class Rounds:
+    """Stages repeated until the last of ``solve`` (the check) says done (``Counter.AGAIN``
+    0), at most ``limit`` times: ``detect`` runs in the first round and again after a round
+    whose check found a body faster than the reach it was searched with (``AGAIN`` 2)."""
+
+    detect: tuple[Stage, ...]
+    solve: tuple[Stage, ...]
+    limit: int
+    needs: Callable = always
+    kind: str = "rounds"
