@@ -39,7 +39,7 @@ def main() -> None:
 
     runtime.init("cpu", precision="f64")
     from melange_ti.model import Model
-    from melange_ti.physics.schema import LINE_COLUMNS
+    from melange_ti.physics.data.schema import LINE_COLUMNS
 
     @ti.kernel
     def one_line(b: ti.types.ndarray()) -> ti.f64:

@@ -10,6 +10,8 @@ old and new ``--repeats`` times so that drifts of the machine hit both alike:
                of the process; ``--duration`` shortens it
 ``n100k``      N = 100,000 paper shelf with tilts of 0.05 rad: ``--warm`` steps, then the
                milliseconds per step of ``--steps`` more (``Model.advance``)
+``waves``      the paper run with the waves effect (``scene.effects+=waves``), wall seconds
+               of the process; ``--waves-duration`` (default 200) long
 ``start``      a warm start: ``python -m melange_ti run`` of 10 icebergs for one step, wall
                seconds of the process, after one untimed run per tree fills Taichi's cache
 
@@ -72,6 +74,7 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=2)
     p.add_argument("--cases", default="paper,n100k")
     p.add_argument("--duration", type=float, help="paper: time.duration (default: the scene's 8000)")
+    p.add_argument("--waves-duration", type=float, default=200.0, help="waves: time.duration")
     p.add_argument("--warm", type=int, default=300)
     p.add_argument("--steps", type=int, default=100)
     a = p.parse_args()
@@ -86,6 +89,9 @@ def main() -> None:
             for label, tree in (("old", a.old), ("new", a.new)):
                 if case == "paper":
                     value, unit = run_paper(tree.resolve(), a.duration), "s (whole process)"
+                elif case == "waves":
+                    waves = ("--set", "scene.effects+=waves")
+                    value, unit = run_paper(tree.resolve(), a.waves_duration, waves), "s (whole process)"
                 elif case == "start":
                     value, unit = run_paper(tree.resolve(), 0.01, start), "s (whole process)"
                 else:

@@ -37,7 +37,7 @@ from children import report, run_child, saved_state, state_difference
 def child(a) -> None:
     import numpy as np
 
-    from melange_ti.physics import narrow
+    from melange_ti.physics.step import narrow
 
     narrow.SKIN = a.skin
     from melange_ti import runtime, scene

@@ -8,8 +8,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from .physics.data.schema import ACCUMULATORS, BODIES, ENERGY_LEDGERS, E
 from .physics.effects import REGISTRY
-from .physics.schema import ACCUMULATORS, BODIES, ENERGY_LEDGERS, E
 
 
 class Event(NamedTuple):

@@ -221,7 +221,7 @@ def _budget_section() -> list[str]:
     """The energy budget, from the schema's ledgers (the same list the summary and the
     energy figure sum)."""
     from .diagnostics import HELD
-    from .physics.schema import ACCUMULATORS, BODIES, ENERGY_LEDGERS
+    from .physics.data.schema import ACCUMULATORS, BODIES, ENERGY_LEDGERS
 
     cols = {c.output: c for t in (BODIES, ACCUMULATORS) for c in t.columns if c.output in ENERGY_LEDGERS}
     out = [

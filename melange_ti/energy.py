@@ -2,7 +2,7 @@
 
 ``E`` is the icebergs' kinetic and potential energy plus every energy an effect holds (the
 waves' ``wave_energy``: :data:`HELD`, from the effects' declarations). The energy budget
-closes ``E(0) - E(t)`` against the ledgers (:data:`melange_ti.physics.schema.ENERGY_LEDGERS`).
+closes ``E(0) - E(t)`` against the ledgers (:data:`melange_ti.physics.data.schema.ENERGY_LEDGERS`).
 
 A run **ran away** when its state is no longer finite or ``E`` rose above its start by more
 than the icebergs' total mass times ``g w`` (every iceberg lifted by one width: far beyond
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .diagnostics import HELD
-from .physics.schema import STATE_NAMES
+from .physics.data.schema import STATE_NAMES
 
 __all__ = ["HELD", "total_energy", "runaway"]
 

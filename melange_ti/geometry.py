@@ -48,7 +48,7 @@ def disc_local(width, thickness, discs: int, spacing: float = 2.0) -> tuple[np.n
 
 # ---------------------------------------------------------------- hydrostatics
 # Corners of the rectangle, counter-clockwise from the lower right in the body frame
-# (same order as melange_ti.physics.hydrostatics.corner).
+# (same order as melange_ti.physics.shape.hydrostatics.corner).
 _SU = np.array([1.0, 1.0, -1.0, -1.0])
 _SV = np.array([-1.0, 1.0, 1.0, -1.0])
 

@@ -1,10 +1,10 @@
 """The Model: the icebergs' arrays (Taichi ndarrays) and the compiled step for one effect set.
 
-A model owns the arrays the schema describes (:mod:`melange_ti.physics.schema`: one row per
+A model owns the arrays the schema describes (:mod:`melange_ti.physics.data.schema`: one row per
 iceberg, contact slots, candidate lists, the cell list, parameters, counters and
 accumulators). The effect set is fixed when the model is built; without contacts no contact
 array is allocated and no contact kernel runs. The step is the stage list of
-:mod:`melange_ti.physics.stages`.
+:mod:`melange_ti.physics.step.stages`.
 
 For small N on the CPU one kernel call runs many steps with every loop serial (no launch
 cost); for large N each stage is launched as parallel kernels. Both give the same bits; in
@@ -23,8 +23,7 @@ import taichi as ti
 from . import runtime  # noqa: F401  (imported for its patch: Taichi reuses source-position text)
 from .errors import ContactOverflow
 from .geometry import disc_radius
-from .physics import device, narrow, stages
-from .physics.schema import (
+from .physics.data.schema import (
     ACC_LEDGERS,
     ACCUMULATORS,
     BODIES,
@@ -46,6 +45,8 @@ from .physics.schema import (
     body_width,
     contact_width,
 )
+from .physics.forms import device
+from .physics.step import narrow, stages
 from .scene import Icebergs, Scene
 
 # On the CPU up to this N one kernel call runs many serial steps, above it each stage is
@@ -58,10 +59,10 @@ SERIAL_MAX_N = 50000
 CALIBRATE_MIN_N = 2000
 
 # From this many CPU threads (always on a GPU) the parallel form solves islands of touching
-# icebergs side by side (physics/islands.py); on fewer, finding them costs what they save
+# icebergs side by side (physics/forms/islands.py); on fewer, finding them costs what they save
 # (docs/performance.md).
 ISLANDS_MIN_THREADS = 4
-MAX_GROUPS = 64  # contiguous groups of the sequential passes at most (physics/groups.py)
+MAX_GROUPS = 64  # contiguous groups of the sequential passes at most (physics/forms/groups.py)
 CALIBRATE_STEPS = 8  # timed steps per form, after one untimed step each (compilation)
 
 _DTYPES = {"f64": ti.f64, "i32": ti.i32, "i64": ti.i64}
@@ -112,10 +113,10 @@ class Model:
         # finding them (ISLANDS_MIN_THREADS); both ways give the same bits
         self.islands = (not on_cpu or threads >= ISLANDS_MIN_THREADS) if islands is None else bool(islands)
         # off the CPU the parts the CPU runs on one thread run in parallel forms
-        # (physics/device.py); forced on the CPU by tests, where they give the same state
+        # (physics/forms/device.py); forced on the CPU by tests, where they give the same state
         self.device_parts = (not on_cpu) if device_parts is None else bool(device_parts)
         # without islands, the sequential passes split into contiguous groups solved side by
-        # side, one per CPU thread (physics/groups.py; the same bits on any number of groups)
+        # side, one per CPU thread (physics/forms/groups.py; the same bits on any number of groups)
         if groups is None:
             groups = threads if on_cpu else 1
         grouped = on_cpu and not self.islands and not self.device_parts

@@ -27,7 +27,7 @@ from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
 from .io.hdf5 import COMPLETE_ATTR, FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_run, scene_text
 from .model import Model
-from .physics.stages import SAMPLE_NAMES
+from .physics.step.stages import SAMPLE_NAMES
 from .scene import Icebergs, Scene
 
 # Output events between two writes of the model's state run in one launch (Simulation._batch):

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import scene as scene_mod
-from .physics.schema import STATE_NAMES
+from .physics.data.schema import STATE_NAMES
 from .scene import dumps_toml
 
 
@@ -100,7 +100,7 @@ def contacts_seen(m) -> list[ContactSeen]:
     """The contacts the last step found (its last detection round): the wall's and each body's
     partners j > i. The narrow phase alone writes these columns, so after a step they hold the
     contacts its impulse pass used (a step with one detection round)."""
-    from .physics.schema import Body, BodyInt, Contact, Param
+    from .physics.data.schema import Body, BodyInt, Contact, Param
 
     a = m.arrays
     b, bi, cd, cp = a.b.to_numpy(), a.bi.to_numpy(), a.cd.to_numpy(), a.cp.to_numpy()

@@ -250,7 +250,7 @@ def test_disc_layout_matches_the_model():
     import taichi as ti
 
     from melange_ti.geometry import disc_local, disc_radius
-    from melange_ti.physics.discs import disc_local as ti_disc_local
+    from melange_ti.physics.shape.discs import disc_local as ti_disc_local
 
     discs, w, h = 28, 1.0, 1.4
     r = float(disc_radius(w, h, discs))
@@ -347,7 +347,7 @@ def test_plot_real_runs(real_runs, tmp_path, capsys):
 
 def test_energy_terms_of_a_real_run_come_from_its_datasets(real_runs):
     from melange_ti.io.hdf5 import read_run
-    from melange_ti.physics.schema import ENERGY_LEDGERS
+    from melange_ti.physics.data.schema import ENERGY_LEDGERS
 
     d = read_run(real_runs[0])["diagnostics"]
     b = stats.energy_budget(d)
@@ -449,7 +449,7 @@ def test_bundled_summaries_follow_the_code():
     from melange_ti.analysis.figures import SUMMARY_COLUMNS
     from melange_ti.diagnostics import FIELDS
     from melange_ti.io.hdf5 import FORMAT_VERSION
-    from melange_ti.physics.schema import ENERGY_LEDGERS
+    from melange_ti.physics.data.schema import ENERGY_LEDGERS
 
     since = {f.name: f.since for f in FIELDS}
     # every ledger the runs' files held: those of the format version they were written in

@@ -78,7 +78,7 @@ def test_scene_is_not_trivial(serial_result):
     assert tot.impulses > 200 and tot.wall_impulse > 0 and capsized_fraction(s["theta"]) > 0
 
 
-from melange_ti.physics.schema import STATE_NAMES as STATE  # noqa: E402
+from melange_ti.physics.data.schema import STATE_NAMES as STATE  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -99,9 +99,9 @@ OTHERS = ["parallel", "parallel 2 groups", "parallel 3 groups", "parallel island
 
 
 def test_groups_split_where_no_contact_crosses():
-    """The groups' bounds (physics/groups.py) after a detection: ascending, each at or after
+    """The groups' bounds (physics/forms/groups.py) after a detection: ascending, each at or after
     its share of the bodies, and no contact joins two groups; the scene does split."""
-    from melange_ti.physics.schema import BodyInt
+    from melange_ti.physics.data.schema import BodyInt
 
     sc = scene_mod.loads(scene_text())
     m = Model(sc, mode="parallel", islands=False, groups=3)
@@ -235,7 +235,7 @@ def test_auto_mode_calibrates_between_the_thresholds_and_keeps_the_bits():
 def test_profile_times_every_part_and_keeps_the_bits(serial_result, islands, groups):
     """``Model.profile(parts=True)`` (the benchmarks' per-kernel table) times each kernel a
     stage launches inside that stage's time, and steps exactly as ``advance`` does."""
-    from melange_ti.physics import stages
+    from melange_ti.physics.step import stages
 
     sc = scene_mod.loads(scene_text())
     m = Model(sc, mode="parallel", islands=islands, groups=groups)

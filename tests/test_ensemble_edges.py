@@ -22,7 +22,7 @@ import pytest
 
 from melange_ti import cli, ensemble
 from melange_ti.io.hdf5 import OutputError, RunWriter
-from melange_ti.physics.schema import STATE_NAMES
+from melange_ti.physics.data.schema import STATE_NAMES
 
 from .test_ensemble import TINY
 

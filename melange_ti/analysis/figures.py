@@ -51,17 +51,7 @@ from ..io.hdf5 import OutputError, is_partial, read_run  # noqa: E402
 from ..scene import SceneError, stored_scene  # noqa: E402
 from . import stats  # noqa: E402
 from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners, wave_surface  # noqa: E402
-from .runs import (  # noqa: E402, F401 (load_run and parse_times are part of this module's interface)
-    Group,
-    Run,
-    check_times,
-    default_times,
-    last_snapshot_time,
-    load_run,
-    make_groups,
-    parse_times,
-    snap_times,
-)
+from .runs import Group, Run, check_times, default_times, last_snapshot_time, load_run, make_groups, parse_times, snap_times
 
 G_SI = 9.81  # m s^-2
 RHO_WATER_SI = 1025.0  # kg m^-3, docs/model.md

@@ -41,7 +41,7 @@ WIDE = 80.0  # widths beyond which a frame gets a leading-edge zoom panel
 
 
 # ---------------------------------------------------------------------------------------
-# Geometry (numpy; mirrors melange_ti.physics.discs and melange_ti.scene)
+# Geometry (numpy; mirrors melange_ti.physics.shape.discs and melange_ti.scene)
 
 
 def rect_corners(x, z, theta, width, thickness) -> np.ndarray:

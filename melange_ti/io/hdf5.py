@@ -30,9 +30,9 @@ import h5py
 import numpy as np
 
 from ..diagnostics import FIELDS
+from ..physics.data.schema import BODIES
+from ..physics.data.schema import STATE_NAMES as STATE
 from ..physics.effects import REGISTRY
-from ..physics.schema import BODIES
-from ..physics.schema import STATE_NAMES as STATE
 
 # 5: the energy an effect holds and its run-wide ledger (0 without it); the datasets and
 # dimensions an effect declares (docs/output.md);

@@ -39,7 +39,7 @@ def single_iceberg_errors(
     from ..energy import total_energy
     from ..geometry import potential_energy
     from ..model import Model
-    from ..physics.schema import STATE_NAMES
+    from ..physics.data.schema import STATE_NAMES
     from ..scene import equilibrium_z
 
     r = DENSITY_RATIO

@@ -29,7 +29,7 @@ from melange_ti import scene as scene_mod
 from melange_ti.energy import total_energy
 from melange_ti.geometry import disc_local
 from melange_ti.model import Model
-from melange_ti.physics.schema import STATE_NAMES as STATE  # noqa: E402
+from melange_ti.physics.data.schema import STATE_NAMES as STATE  # noqa: E402
 from melange_ti.scene import DENSITY_RATIO
 
 from .scenes import initial, make_scene
@@ -529,7 +529,7 @@ def _contacts_now(m):
     """Contacts the next step would use, with their raw data: pairs, wall bodies, and each
     body's slots (partner, point, normal, gap) as bytes."""
     pairs, wall = m.contact_pairs()
-    from melange_ti.physics.schema import BodyInt
+    from melange_ti.physics.data.schema import BodyInt
 
     nc = m.arrays.bi.to_numpy()[:, BodyInt.NCONTACT]
     cd, cp = m.arrays.cd.to_numpy(), m.arrays.cp.to_numpy()
@@ -584,7 +584,7 @@ def test_candidate_lists_are_kept_and_exact(discs):
     """A packed row, its lists made, then moved a little (well within the skin): the lists
     are reused (their recorded poses do not change) and give the searched contacts exactly;
     moved a lot, they are remade (poses change) and are exact again."""
-    from melange_ti.physics.narrow import ENTRIES
+    from melange_ti.physics.step.narrow import ENTRIES
 
     sc, s, rng = _packed_row(discs)
     m = Model(sc)
@@ -627,8 +627,8 @@ def test_broad_phase_reach_is_exact():
     fastest speed alone (both monotone in floating point). Against numpy, exactly, with
     random velocities over more bodies than one chunk of the parallel maximum (1,000 > 256)
     and the fastest body in the last, partial chunk."""
-    from melange_ti.physics import broad
-    from melange_ti.physics.schema import Body, Param, Scratch
+    from melange_ti.physics.data.schema import Body, Param, Scratch
+    from melange_ti.physics.step import broad
 
     sc = scene_mod.load(None, overrides=[("shelf.count", 1000)])
     m = Model(sc, mode="parallel", islands=False)

@@ -1,4 +1,4 @@
-"""The device's parallel forms of the CPU's one-thread parts (physics/device.py), run here on
+"""The device's parallel forms of the CPU's one-thread parts (physics/forms/device.py), run here on
 the CPU: the same state bit for bit, the same islands, and the energy sums within rounding.
 
 A device runs them by default (``Model(device_parts=True)`` off the CPU); the comparison is
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from melange_ti.model import Model
-from melange_ti.physics import device
-from melange_ti.physics.schema import BodyInt, Counter
+from melange_ti.physics.data.schema import BodyInt, Counter
+from melange_ti.physics.forms import device
 from melange_ti.scene import dumps_toml, loads
 
 R = 0.8946

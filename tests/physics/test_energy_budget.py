@@ -14,7 +14,7 @@ import pytest
 import melange_ti as mt
 from melange_ti.energy import total_energy
 from melange_ti.model import Model
-from melange_ti.physics.schema import ENERGY_LEDGERS
+from melange_ti.physics.data.schema import ENERGY_LEDGERS
 
 
 def _budget(restitution: float, dt: float = 0.01, duration: float = 150.0):

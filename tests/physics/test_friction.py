@@ -22,7 +22,7 @@ import pytest
 
 from melange_ti import scene as scene_mod
 from melange_ti.model import Model
-from melange_ti.physics.schema import ENERGY_LEDGERS
+from melange_ti.physics.data.schema import ENERGY_LEDGERS
 from melange_ti.scene import DENSITY_RATIO
 from melange_ti.testing import contact_matrix, contacts_seen, corner_x, coulomb_impulse, first_impulse, kinetic
 

@@ -1,4 +1,4 @@
-"""The schema (melange_ti.physics.schema): every array indexed through its own namespace.
+"""The schema (melange_ti.physics.data.schema): every array indexed through its own namespace.
 
 Taichi compiles ``a.cd[s, i, Body.VX]`` without complaint (both are integers), so this test
 reads every kernel module and checks that each subscript whose column comes from a schema
@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from melange_ti.physics import schema
-from melange_ti.physics.columns import ROLES, Column
+from melange_ti.physics.data import schema
+from melange_ti.physics.data.columns import ROLES, Column
 
-PHYSICS = Path(schema.__file__).resolve().parent
+PHYSICS = Path(schema.__file__).resolve().parent.parent  # melange_ti/physics
 ARRAYS = {t.array: t for t in schema.TABLES}  # "b" -> BODIES, ...
 NAMESPACES = {t.namespace.__name__: t for t in schema.TABLES}  # "Body" -> BODIES, ...
 

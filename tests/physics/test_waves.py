@@ -310,6 +310,26 @@ def test_waves_are_bit_identical_across_kernel_forms():
         assert tot == t0
 
 
+def test_fused_sampling_with_waves_gives_the_unfused_samples():
+    """``advance_sampled`` (several samples in one launch, as a run's diagnostics are taken)
+    gives what ``advance`` then ``sample_with_totals`` give, bit for bit: the surface, the
+    wave energy and the absorbed energy too, at every sample (a ledger copied stale inside
+    the launch once showed only here)."""
+    bergs = [{"x": 0.8 + 1.2 * q, "z": -R * 1.4 + 0.7, "theta": 0.05 * (-1) ** q, "vx": 0.3 * (-1) ** q} for q in range(12)]
+    physics = {"wave_end": 20.0, "wave_sponge": 4.0, "wave_dx": 0.125}
+    sc = make_scene(["gravity", "buoyancy", "drag", "collisions", "wall", "waves"], bergs, physics)
+    fused, unfused = Model(sc, mode="serial"), Model(sc, mode="serial")
+    samples = fused.advance_sampled([60] * 6)
+    for sample, totals in samples:
+        unfused.advance(60)
+        s, t = unfused.sample_with_totals()
+        assert set(sample) == set(s) and {"eta", "wave_energy"} <= set(s)
+        for k in s:
+            assert np.asarray(sample[k]).tobytes() == np.asarray(s[k]).tobytes(), k
+        assert totals == t
+    assert samples[-1][1].wave_absorbed > samples[0][1].wave_absorbed > 0.0  # the ledger moves within the launch
+
+
 @pytest.mark.parametrize(
     ("physics", "key"),
     [

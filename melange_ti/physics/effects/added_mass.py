@@ -2,7 +2,7 @@
 
 ``m_a = C_a rho_w A_sub`` on translation and ``I_a = C_i rho_w J_sub`` on rotation, with
 ``A_sub`` the submerged area and ``J_sub`` its polar second moment about the centre of mass
-(:func:`..hydrostatics.wetted`), added to the iceberg's own mass and inertia where the
+(:func:`..shape.hydrostatics.wetted`), added to the iceberg's own mass and inertia where the
 accelerations from body forces are computed (``v += dt F / (m + m_a)``), in the drags, and
 in the contact law and the overlap correction (an impulse must set the carried water in
 motion too; with it the impulse's exact dissipation ``0.5 (1 - e^2) vn^2 / K`` holds for the
@@ -17,12 +17,12 @@ change of ``m_a`` and ``I_a`` over the step) in ``added_mass_work``, so the budg
 ``E(0) - E(t) = drag + collisions + corrections + added_mass_work`` still closes.
 """
 
-from ..columns import Column, E
+from ..data.columns import Column, E
 from .base import Effect, Key
 
 
 def _kernels():
-    from ..terms import added_mass
+    from .terms import added_mass
 
     return added_mass
 

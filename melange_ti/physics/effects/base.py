@@ -2,7 +2,7 @@
 
 A declaration imports no Taichi, so the scene, the schema and the run-file readers built
 from it work where Taichi is not installed; the terms are ``@ti.func``s in
-:mod:`melange_ti.physics.terms` (``terms/NAME.py``), imported when a kernel first asks.
+:mod:`melange_ti.physics.effects.terms` (``terms/NAME.py``), imported when a kernel first asks.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
-from ..columns import Column, Table
+from ..data.columns import Column, Table
 
 
 @dataclass(frozen=True)
@@ -92,7 +92,7 @@ class Effect:
     per-iceberg columns in ``b`` (a ``ledger`` column with an ``output`` name is summed into
     that diagnostic and checkpointed; marked ``budget``, it is booked in the energy budget);
     ``terms``: which of :data:`TERMS` it has, each a ``@ti.func`` of that name in
-    ``melange_ti/physics/terms/NAME.py`` (read as ``effect.force`` etc.; ``None`` when absent):
+    ``melange_ti/physics/effects/terms/NAME.py`` (read as ``effect.force`` etc.; ``None`` when absent):
 
     ``force(a, i) -> ti.Vector([f_x, f_z, tau])``
                                                body force and torque on iceberg i
@@ -110,7 +110,7 @@ class Effect:
     ``impulse(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, K_nn, m1, I1, c1n, m2, I2, c2n, kick_vn)
        -> (J_n, ti.Vector(ledger terms))``     the contact law's impulse (at most one named
                                                effect has it; without, the frictionless law
-                                               of :func:`..impulses.resolve`), applied to the
+                                               of :func:`..step.impulses.resolve`), applied to the
                                                pair; the terms of the law's ledgers, the
                                                law's own then its ``law_ledgers``
 
@@ -127,7 +127,7 @@ class Effect:
     ``law_ledgers``  run-wide ledgers the contact law books per impulse (its ``impulse``
                      term returns their terms after the law's own): each also gets a
                      deferred column in the contacts (``DEF_NAME``), and every form books
-                     them through one path (:func:`melange_ti.physics.schema.law_ledgers`)
+                     them through one path (:func:`melange_ti.physics.data.schema.law_ledgers`)
     ``held``         the energies it holds (:class:`Quantity`), part of ``E``: a diagnostic
                      each, summed by :func:`melange_ti.energy.total_energy`
     ``datasets``     the variables it writes to the run file (:class:`Dataset`)
@@ -141,7 +141,7 @@ class Effect:
     ``kernels``      ``kernels() -> module``: imports its Taichi side, the module holding its
                      terms (``force`` ... by name) and ``STAGES``: ``((anchor, Stage), ...)``,
                      each stage run after the step's stage ``anchor`` (``"forces"``, ...,
-                     ``"correction"``: :data:`melange_ti.physics.stages.STEP`)
+                     ``"correction"``: :data:`melange_ti.physics.step.stages.STEP`)
 
     A term is compiled into the kernels only when the scene names the effect
     (``ti.static``), so an effect not named costs nothing; an effect's table, datasets,

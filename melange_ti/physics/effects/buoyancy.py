@@ -1,10 +1,10 @@
-"""Buoyancy: the exact hydrostatic force and torque of the submerged part (:mod:`..hydrostatics`)."""
+"""Buoyancy: the exact hydrostatic force and torque of the submerged part (:mod:`..shape.hydrostatics`)."""
 
 from .base import Effect
 
 
 def _kernels():
-    from ..terms import buoyancy
+    from .terms import buoyancy
 
     return buoyancy
 

@@ -1,9 +1,9 @@
 """Iceberg-iceberg contact: normal impulses with restitution, found through the discs.
 
 The contact law is shared with the wall; its code lives in the step's phases: detection in
-:mod:`..narrow`, the impulse pass in :mod:`..impulses`, the overlap correction in
-:mod:`..correction`. Its ledgers (``collision_dissipated``, ``correction_work``) are
-run-wide accumulators (:data:`..schema.ACCUMULATORS`)."""
+:mod:`..step.narrow`, the impulse pass in :mod:`..step.impulses`, the overlap correction in
+:mod:`..step.correction`. Its ledgers (``collision_dissipated``, ``correction_work``) are
+run-wide accumulators (:data:`..data.schema.ACCUMULATORS`)."""
 
 from .base import Effect
 

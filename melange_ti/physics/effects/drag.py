@@ -5,12 +5,12 @@ unconditionally stable, never reverses a velocity); the exact kinetic energy it 
 booked per body in the ``DRAG_WORK`` ledger (``drag_dissipated``).
 """
 
-from ..columns import Column, E
+from ..data.columns import Column, E
 from .base import Effect, Key
 
 
 def _kernels():
-    from ..terms import drag
+    from .terms import drag
 
     return drag
 

@@ -5,7 +5,7 @@ projected normal to ``v`` (per unit length into the page). Rotation: each wetted
 ``ds`` at arm ``r`` with outward normal ``n`` moves into the water at ``u_n = omega (r x n)``
 and feels ``-0.5 rho_w C_d |u_n| u_n n ds``; summed, the torque is
 ``tau = -0.5 rho_w C_d omega |omega| R3`` with ``R3 = int_wetted |r x n|^3 ds``
-(:func:`..hydrostatics.wetted`), the quadratic analogue of a rotating plate's drag.
+(:func:`..shape.hydrostatics.wetted`), the quadratic analogue of a rotating plate's drag.
 
 Both are applied after the body forces, implicitly in the speed:
 ``v <- v / (1 + k |v| dt)`` with ``k = 0.5 rho_w C_d P / m`` (and likewise omega with
@@ -15,12 +15,12 @@ step times while ``P`` is constant. ``m`` and ``I`` include the water's added in
 ``added_mass`` is on. The kinetic energy removed is booked in ``drag_dissipated``.
 """
 
-from ..columns import Column
+from ..data.columns import Column
 from .base import Effect, Key
 
 
 def _kernels():
-    from ..terms import form_drag
+    from .terms import form_drag
 
     return form_drag
 

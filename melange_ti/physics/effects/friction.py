@@ -1,6 +1,6 @@
 """Coulomb friction at iceberg-iceberg and wall contacts (beyond the paper).
 
-With it the contact law (its ``impulse`` term, :func:`..terms.friction.impulse`) is Newton's restitution with Coulomb's
+With it the contact law (its ``impulse`` term, :func:`.terms.friction.impulse`) is Newton's restitution with Coulomb's
 cone, one impulse ``J = J_n n + J_t t`` (``t = (-n_z, n_x)``) solved with the contact point's
 2x2 effective-mass matrix ``K`` (``K_nt`` couples the directions at an off-centre contact):
 ``v_n' = -e v_n`` always; the contact sticks (``v_t' = 0``) when that impulse lies in the cone
@@ -14,12 +14,12 @@ so its bits, is the contact law's; ``mu = 0`` gives the frictionless impulse to 
 Derived in docs/model.md ("Contacts").
 """
 
-from ..columns import Column, E
+from ..data.columns import Column, E
 from .base import Effect, Key
 
 
 def _kernels():
-    from ..terms import friction
+    from .terms import friction
 
     return friction
 

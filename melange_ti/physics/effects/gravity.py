@@ -4,7 +4,7 @@ from .base import Effect
 
 
 def _kernels():
-    from ..terms import gravity
+    from .terms import gravity
 
     return gravity
 

@@ -1,10 +1,10 @@
 """The wall: a rigid, immovable vertical wall at ``x = wall_x`` that icebergs collide with
-(the contact law of :mod:`..impulses` with infinite mass; normal +x).
+(the contact law of :mod:`..step.impulses` with infinite mass; normal +x).
 
 Its contact is found here (:func:`detect`), one per iceberg, from the discs within reach;
 the impulse pass and the correction visit it before the body's partners."""
 
-from ..columns import Column
+from ..data.columns import Column
 from .base import Effect, Key
 
 EFFECT = Effect(

@@ -46,7 +46,7 @@ over the cells.
 
 import math
 
-from ...columns import Column, E, Table
+from ...data.columns import Column, E, Table
 from ..base import Dataset, Effect, Key, Quantity
 
 SUB = 2  # sample points per grid cell for the coupling integrals

@@ -4,8 +4,8 @@ strip by strip (:mod:`melange_ti.physics.effects.waves` has the physics)."""
 
 import taichi as ti
 
+from ...data.schema import Body, Param
 from ...numerics import FAR
-from ...schema import Body, Param
 from . import SUB, Wave
 from .grid import cells, quantize
 

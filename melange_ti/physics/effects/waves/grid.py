@@ -12,7 +12,7 @@ trigonometric function. The grid is the effect's table, ``a.own`` (namespace :cl
 
 import taichi as ti
 
-from ...schema import Acc, Config, Param
+from ...data.schema import Acc, Config, Param
 from . import MAX_CELLS, SPONGE_Q, Wave
 
 MAX_LOG = MAX_CELLS.bit_length()  # butterfly stages of the longest transform, 2 * MAX_CELLS

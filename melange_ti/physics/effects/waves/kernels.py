@@ -3,8 +3,8 @@
 
 import taichi as ti
 
-from ...schema import Arrays
-from ...step_parts import Part, Stage
+from ...data.schema import Arrays
+from ...step.parts import Part, Stage
 from . import grid
 from .coupling import deposit as post_drift
 from .coupling import force

@@ -1,6 +1,6 @@
 """What a step is made of: its stages (:class:`Stage`), each a serial form and parallel parts
 (:class:`Part`), and repeated rounds (:class:`Rounds`). The step itself is
-:data:`melange_ti.physics.stages.STEP`; an effect adds stages of its own
+:data:`melange_ti.physics.step.stages.STEP`; an effect adds stages of its own
 (``Effect.kernels().STAGES``). No Taichi here: the parts' functions are the kernels'."""
 
 from collections.abc import Callable
@@ -38,10 +38,10 @@ class Stage:
     ``per_pass``; ``needs(fx)``: run only when true. Without islands
     (``Model(islands=False)``) the parallel form runs ``without_islands`` instead (once), and
     skips an ``islands_only`` stage; with groups (``Model(groups=G)``, G > 1: the sequential
-    passes split into G contiguous groups, :mod:`.groups`) it runs ``groups`` where given
+    passes split into G contiguous groups, :mod:`..forms.groups`) it runs ``groups`` where given
     (``per_pass`` as ``parallel``), the islands stage included. On a device (``Model(device_parts=True)``) it runs
     ``device`` instead of ``parallel``, where given: no part on one thread but a walk over
-    block sums (:mod:`.device`). ``owner``: the effect that added it to the step."""
+    block sums (:mod:`..forms.device`). ``owner``: the effect that added it to the step."""
 
     name: str
     serial: Callable

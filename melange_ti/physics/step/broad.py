@@ -9,7 +9,7 @@ that; the step then detects again (:func:`outran`, the ``check`` stage).
 
 import taichi as ti
 
-from .schema import Body, BodyInt, Cell, Config, Param, Scratch
+from ..data.schema import Body, BodyInt, Cell, Config, Param, Scratch
 
 # The parallel form's maximum speed: each chunk of bodies takes its own, then one atomic per
 # chunk (a maximum is exact in any order: the same bits as one atomic per body, which made

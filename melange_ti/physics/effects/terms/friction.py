@@ -1,22 +1,22 @@
-"""The friction effect's term (declared in :mod:`..effects.friction`): the contact law's impulse
-with Coulomb's cone, in place of the frictionless one of :func:`..impulses.resolve`."""
+"""The friction effect's term (declared in :mod:`..friction`): the contact law's impulse
+with Coulomb's cone, in place of the frictionless one of :func:`...step.impulses.resolve`."""
 
 import taichi as ti
 
-from ..impulses import pair_mass, relative_normal
-from ..schema import Body, Param
+from ...data.schema import Body, Param
+from ...step.impulses import pair_mass, relative_normal
 
 
 @ti.func
 def impulse(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, knn, m1, i1, c1n, m2, i2, c2n, kick_vn):
     """The impulse ``P = J_n n + J_t t`` of Newton's restitution with Coulomb friction
-    (effect ``friction``, :mod:`..effects.friction`; derived in docs/model.md), applied to
+    (effect ``friction``, :mod:`..friction`; derived in docs/model.md), applied to
     the pair: the contact point's relative velocity ``u = (v_n, v_t)`` changes by ``K P``,
     ``K`` the 2x2 effective-mass matrix of the point (``K_nt`` couples the two directions
     at an off-centre contact). ``v_n' = -e v_n`` always; the contact sticks (``v_t' = 0``)
     when that impulse lies in the cone ``|J_t| <= mu J_n``, else it slides along the cone's
     edge on that side. Returns ``J_n`` and the terms of the law's ledgers
-    (:func:`..schema.law_ledgers`): the normal impulse's dissipation, the half-kick offset,
+    (:func:`...data.schema.law_ledgers`): the normal impulse's dissipation, the half-kick offset,
     the tangential impulse's dissipation; each impulse's work at its direction's mean
     velocity, ``-J (v + v') / 2``, which sum to the kinetic energy lost."""
     tx = -nz

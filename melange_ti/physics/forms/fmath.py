@@ -7,7 +7,7 @@ operations alone: the argument reduced by ``pi/2`` in three parts (Cody and Wait
 fdlibm's ``__ieee754_rem_pio2`` does for medium arguments), then fdlibm's minimax
 polynomials on ``[-pi/4, pi/4]``. Valid for ``|x| < 2**20 * pi/2`` (about 1.6 million radians; a tilt never comes near),
 within 1 ulp of numpy over the tilts the model meets (tested in tests/test_device.py).
-Everywhere else (the CPU, CUDA, f32) :func:`.forces.orient` calls Taichi's own functions,
+Everywhere else (the CPU, CUDA, f32) :func:`..step.forces.orient` calls Taichi's own functions,
 so the CPU's bits do not depend on this module.
 """
 

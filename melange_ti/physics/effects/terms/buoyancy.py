@@ -1,9 +1,9 @@
-"""The ``@ti.func`` terms of the buoyancy effect (declared, with its physics, in :mod:`..effects.buoyancy`)."""
+"""The ``@ti.func`` terms of the buoyancy effect (declared, with its physics, in :mod:`..buoyancy`)."""
 
 import taichi as ti
 
-from ..hydrostatics import submerged_moments
-from ..schema import Body, Param
+from ...data.schema import Body, Param
+from ...shape.hydrostatics import submerged_moments
 
 
 @ti.func

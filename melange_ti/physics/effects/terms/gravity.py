@@ -1,8 +1,8 @@
-"""The ``@ti.func`` terms of the gravity effect (declared, with its physics, in :mod:`..effects.gravity`)."""
+"""The ``@ti.func`` terms of the gravity effect (declared, with its physics, in :mod:`..gravity`)."""
 
 import taichi as ti
 
-from ..schema import Body, Param
+from ...data.schema import Body, Param
 
 
 @ti.func

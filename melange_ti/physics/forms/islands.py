@@ -8,7 +8,7 @@ island in the sequential pass's order (body ascending; its wall contact, then it
 j > i ascending) gives every body the bits the sequential pass gives it, on any number of
 threads. What crosses islands are the run-wide sums: the impulses' energy terms are kept
 per contact (``Contact.DEF_*``) and added afterwards in the sequential order
-(:func:`.impulses.book`); the corrections' energy is computed per body and summed in body
+(:func:`..step.impulses.book`); the corrections' energy is computed per body and summed in body
 order; the impulse count is an integer.
 
 :func:`label` (sequential, after each detection) finds the islands by union-find, each
@@ -18,9 +18,9 @@ each (``BodyInt.ISLAND_ORDER`` from ``ISLAND_START[k]``).
 
 import taichi as ti
 
-from .correction import MAX_CORRECT, sweep_body
-from .impulses import body_contacts
-from .schema import BodyInt, Config, Counter
+from ..data.schema import BodyInt, Config, Counter
+from ..step.correction import MAX_CORRECT, sweep_body
+from ..step.impulses import body_contacts
 
 
 @ti.func
@@ -85,7 +85,7 @@ def span(a: ti.template(), k):
 
 @ti.func
 def impulse_islands(fx: ti.template(), a: ti.template()):
-    """One impulse pass, islands in parallel; energy terms deferred (:func:`.impulses.book`)."""
+    """One impulse pass, islands in parallel; energy terms deferred (:func:`..step.impulses.book`)."""
     for k in range(ti.cast(a.cnt[Counter.ISLANDS], ti.i32)):
         start, end = span(a, k)
         for p in range(start, end):

@@ -29,9 +29,9 @@ Partial results live in ``red`` (``(blocks, RED_WIDTH)``, f64; integers are exac
 
 import taichi as ti
 
-from .correction import MAX_CORRECT, sweep_body
-from .impulses import body_contacts, contact_range
-from .schema import MAX_LAW_LEDGERS, Acc, Body, BodyInt, Cell, Config, Contact, Counter, law_ledgers
+from ..data.schema import MAX_LAW_LEDGERS, Acc, Body, BodyInt, Cell, Config, Contact, Counter, law_ledgers
+from ..step.correction import MAX_CORRECT, sweep_body
+from ..step.impulses import body_contacts, contact_range
 
 BLOCK_BITS = 8
 BLOCK = 1 << BLOCK_BITS
@@ -88,7 +88,7 @@ def cell_scan_blocks(fx: ti.template(), a: ti.template()):
 
 @ti.func
 def cell_starts(fx: ti.template(), a: ti.template()):
-    """Each cell's START and FILL, its COUNT cleared (:func:`.broad.scan_cells`, blocked)."""
+    """Each cell's START and FILL, its COUNT cleared (:func:`..step.broad.scan_cells`, blocked)."""
     cells = ti.static(a.cells)
     ncells = ti.cast(a.cfg[Config.NCELLS], ti.i32)
     for blk in range(blocks(ncells)):
@@ -210,8 +210,8 @@ def correct_spans(fx: ti.template(), a: ti.template()):
 @ti.func
 def impulse_sums(fx: ti.template(), a: ti.template()):
     """Per block, the deferred terms of its bodies' impulses in the sequential order
-    (:func:`.impulses.book`), cleared: the wall's impulses, all impulses, their count and
-    the contact law's ledgers (:func:`.schema.law_ledgers`), in columns ``RED_FIXED + q``."""
+    (:func:`..step.impulses.book`), cleared: the wall's impulses, all impulses, their count and
+    the contact law's ledgers (:func:`..data.schema.law_ledgers`), in columns ``RED_FIXED + q``."""
     cd = ti.static(a.cd)
     n = a.bi.shape[0]
     for blk in range(blocks(n)):
@@ -260,7 +260,7 @@ def impulse_total(fx: ti.template(), a: ti.template()):
 
 @ti.func
 def correction_sums(fx: ti.template(), a: ti.template()):
-    """Per block, its moved bodies' changes of potential energy (:func:`.correction.book`)."""
+    """Per block, its moved bodies' changes of potential energy (:func:`..step.correction.book`)."""
     n = a.bi.shape[0]
     for blk in range(blocks(n)):
         du = zero64()

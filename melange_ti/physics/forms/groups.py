@@ -13,7 +13,7 @@ into one island is not walked to its end at every detection.
 The first group adds its impulses' energy terms to the run-wide sums as it goes; the later
 groups keep them per contact (``Contact.DEF_*``) and :func:`book_later` adds them
 afterwards in body order, so the sums are the same bits too. The correction's energy is
-already summed in body order (:func:`.correction.book`).
+already summed in body order (:func:`..step.correction.book`).
 
 Group ``g``'s bodies are ``[ISLAND_START[g], ISLAND_START[g + 1])`` (the islands' columns,
 unused when islands are off).
@@ -21,14 +21,14 @@ unused when islands are off).
 Cheaper than islands on a few threads: finding the cuts walks the bodies once up to the
 last cut, and the booking visits only the later groups' contacts. Used only in the CPU's
 parallel form without islands (a device runs islands: its parts avoid the two call sites of
-the contact law that :func:`impulse_groups` has, see :func:`.impulses.contact`).
+the contact law that :func:`impulse_groups` has, see :func:`..step.impulses.contact`).
 """
 
 import taichi as ti
 
-from .correction import MAX_CORRECT, sweep_body
-from .impulses import body_contacts, book_bodies
-from .schema import BodyInt, Config
+from ..data.schema import BodyInt, Config
+from ..step.correction import MAX_CORRECT, sweep_body
+from ..step.impulses import body_contacts, book_bodies
 
 # Taichi's CPU range-for gives a loop of a few items to one thread: each group's work sits at
 # a multiple of STRIDE iterations of a longer loop, so that the groups land on different
@@ -88,7 +88,7 @@ def impulse_groups(fx: ti.template(), a: ti.template()):
 @ti.func
 def book_later(fx: ti.template(), a: ti.template()):
     """The later groups' deferred terms added to the run-wide sums in body order (one
-    thread): the bits of the sequential pass's own sums (:func:`.impulses.book`)."""
+    thread): the bits of the sequential pass's own sums (:func:`..step.impulses.book`)."""
     book_bodies(fx, a, a.bi[1, BodyInt.ISLAND_START], ti.cast(a.cfg[Config.N], ti.i32))
 
 

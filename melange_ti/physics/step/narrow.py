@@ -3,7 +3,7 @@
 Contacts are found in parallel (one body i per thread): body i's contacts with partners
 j > i go into its slots sorted by j, so the contact list does not depend on the thread
 count. A contact is kept if its gap may close within this step (speculative contacts: no
-tunnelling at any speed); the wall's contact is found by :func:`.terms.wall.detect`.
+tunnelling at any speed); the wall's contact is found by :func:`.wall.detect`.
 
 **Candidate lists.** Where icebergs collide (``Config.LISTS``) each body keeps, per partner,
 the disc pairs within touching distance plus a skin, and visits only those while the pair
@@ -15,17 +15,17 @@ disc of i, one face of j and consecutive discs of j on it (the pairs within reac
 disc of i on a face of j are consecutive), so one code stands for a whole row of pairs, and
 a body's partners and counts share its first cache line (sizes and timings:
 ``docs/performance.md``). ``nr`` holds the
-pose each list was made at (:data:`.schema.LIST_POSES`); ``BodyInt.NEXT_ENTRY`` is the
+pose each list was made at (:data:`..data.schema.LIST_POSES`); ``BodyInt.NEXT_ENTRY`` is the
 entry a new partner takes (round robin).
 """
 
 import taichi as ti
 
+from ..data.schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Param
+from ..numerics import FAR, TINY
+from ..shape.discs import face_line, line_window
+from . import wall
 from .broad import cell_size, margin, reach
-from .discs import face_line, line_window
-from .numerics import FAR, TINY
-from .schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Param
-from .terms import wall
 
 # Candidate lists: partners kept per body, disc pairs kept per partner, and the skin (a
 # fraction of the smaller disc radius) added to the touching distance.

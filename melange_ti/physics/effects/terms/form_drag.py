@@ -1,9 +1,9 @@
-"""The ``@ti.func`` terms of the form_drag effect (declared, with its physics, in :mod:`..effects.form_drag`)."""
+"""The ``@ti.func`` terms of the form_drag effect (declared, with its physics, in :mod:`..form_drag`)."""
 
 import taichi as ti
 
-from ..hydrostatics import wetted
-from ..schema import Body, Param
+from ...data.schema import Body, Param
+from ...shape.hydrostatics import wetted
 
 
 @ti.func

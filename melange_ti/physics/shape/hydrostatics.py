@@ -9,7 +9,7 @@ segment from the exit to the entry crossing closes the polygon. Units: widths, g
 
 import taichi as ti
 
-from .numerics import FAR
+from ..numerics import FAR
 
 
 @ti.func

@@ -1,8 +1,8 @@
 """Forces and integration: the kick (body forces, then damping) and the drift.
 
 Semi-implicit Euler, velocities first: ``v += dt F/m``, ``omega += dt tau/I`` from the
-forces of the effects named (:data:`.effects.FORCES`, summed in registry order), then each
-named damping term (:data:`.effects.DAMPERS`); after contacts, ``x += dt v`` and
+forces of the effects named (:data:`..effects.FORCES`, summed in registry order), then each
+named damping term (:data:`..effects.DAMPERS`); after contacts, ``x += dt v`` and
 ``theta += dt omega``. When the scene has contacts the kick keeps its change of the
 velocities (``Body.KICK_VX``, ``KICK_VZ``, ``KICK_OM``) for the impulses' energy booking.
 The drift caches cos and sin of the new tilt (``Body.COS``, ``Body.SIN``), the one place a
@@ -11,9 +11,9 @@ step evaluates trigonometric functions.
 
 import taichi as ti
 
-from . import fmath
-from .effects import ADDED, DAMPERS, FORCES, POST_DRIFT, POTENTIALS
-from .schema import Body, Param
+from ..data.schema import Body, Param
+from ..effects import ADDED, DAMPERS, FORCES, POST_DRIFT, POTENTIALS
+from ..forms import fmath
 
 HAS_TORQUE = tuple(e for e in FORCES if e.torque)
 HORIZONTAL = tuple(e for e in FORCES if e.horizontal)
@@ -88,7 +88,7 @@ def kick(fx: ti.template(), a: ti.template(), i):
 @ti.func
 def orient(a: ti.template(), i):
     """Cache cos and sin of body i's tilt: the one place a step evaluates them (in f64 on a
-    SPIR-V device, which has no f64 ``sin``/``cos``, from :mod:`.fmath`)."""
+    SPIR-V device, which has no f64 ``sin``/``cos``, from :mod:`..forms.fmath`)."""
     if ti.static(fmath.needs_own_trig()):
         sn, cs = fmath.sin_cos_f64(a.b[i, Body.TH])
         a.b[i, Body.COS] = cs

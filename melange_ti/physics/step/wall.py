@@ -1,13 +1,13 @@
 """The wall's contact (effect declared in :mod:`..effects.wall`): found here (:func:`detect`), one per
 iceberg, from the discs within reach; the impulse pass and the correction visit it before the
-body's partners (the contact law of :mod:`..impulses` with infinite mass; normal +x)."""
+body's partners (the contact law of :mod:`.impulses` with infinite mass; normal +x)."""
 
 import taichi as ti
 
-from ..broad import margin, reach
-from ..discs import disc_local, to_world
+from ..data.schema import Body, BodyInt, Config, Param
 from ..numerics import FAR
-from ..schema import Body, BodyInt, Config, Param
+from ..shape.discs import disc_local, to_world
+from .broad import margin, reach
 
 
 @ti.func
@@ -28,7 +28,7 @@ def gap(a: ti.template(), i):
 def detect(a: ti.template(), i):
     """Body i's wall contact, if a disc is within its reach: the contact height is the
     mean of the discs' heights weighted by ``motion - gap`` (or ``reach - gap`` for a
-    standby contact), as for a pair (:func:`..narrow.narrow`)."""
+    standby contact), as for a pair (:func:`.narrow.narrow`)."""
     b = ti.static(a.b)
     c, s = b[i, Body.COS], b[i, Body.SIN]
     hw, hh, r = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], b[i, Body.RADIUS]

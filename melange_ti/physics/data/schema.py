@@ -38,8 +38,8 @@ from __future__ import annotations
 import dataclasses
 from typing import NamedTuple
 
+from ..effects import OWNERS, REGISTRY
 from .columns import Column, E, Table
-from .effects import OWNERS, REGISTRY
 
 
 class Body:
@@ -334,7 +334,7 @@ def _params(effect_params: tuple[Column, ...]) -> Table:
 class Arrays(NamedTuple):
     """The model's ndarrays, in the order every kernel takes them (see :class:`Table`).
 
-    ``nl`` (N, narrow.list_width(k), i32): candidate lists; see :mod:`.narrow`. ``own``: the
+    ``nl`` (N, narrow.list_width(k), i32): candidate lists; see :mod:`..step.narrow`. ``own``: the
     table of the effect that owns one (``Effect.table``, indexed with its namespace; one row
     of one column in a model without such an effect). Every field defaults to ``None``, for
     kernels that take a few arrays (``Arrays(cfg=cfg, own=own)``)."""
@@ -351,7 +351,7 @@ class Arrays(NamedTuple):
     cfg: object = None
     cnt: object = None
     acc: object = None
-    red: object = None  # (blocks, device.RED_WIDTH), f64: partial sums of the device's parallel parts (physics/device.py)
+    red: object = None  # (blocks, device.RED_WIDTH), f64: partial sums of the device's parallel parts (physics/forms/device.py)
     own: object = None  # (rows, table.size), real: the owning effect's table
 
 
@@ -369,7 +369,7 @@ BODIES, PARAMS = _build()
 
 # Scratch shared in time: from the kick to the last impulse pass, the columns the correction
 # uses later hold the kick's change of the velocities, which the contact law's energy
-# booking reads (:func:`.impulses.resolve`); the correction zeroes or overwrites them first.
+# booking reads (:func:`..step.impulses.resolve`); the correction zeroes or overwrites them first.
 Body.KICK_VX = Body.SHIFT_X
 Body.KICK_VZ = Body.SHIFT_Z
 Body.KICK_OM = Body.POT_START
@@ -414,8 +414,8 @@ def law_ledgers(fx) -> tuple[tuple[int, int], ...]:
     """The contact law's energy ledgers in a model of ``fx``, as ``(Acc column, Contact column
     of its deferred term)``: the law's own (its dissipation, the half-kick offset), then
     each named effect's ``law_ledgers`` in the registry's order. Every form books them
-    through this one list (:func:`.impulses.resolve`, :func:`.impulses.book_one`,
-    :func:`.device.impulse_sums`)."""
+    through this one list (:func:`..step.impulses.resolve`, :func:`..step.impulses.book_one`,
+    :func:`..forms.device.impulse_sums`)."""
     own = ((Acc.COLLISION, Contact.DEF_COLLISION), (Acc.OFFSET, Contact.DEF_OFFSET))
     named = tuple(
         (ACCUMULATORS.index(c.name), CONTACTS.index(f"DEF_{c.name}"))

@@ -8,7 +8,7 @@ spacing on the longest face is exactly ``2 radius`` (see :func:`melange_ti.geome
 
 import taichi as ti
 
-from .numerics import TINY
+from ..numerics import TINY
 
 
 @ti.func

@@ -1,8 +1,8 @@
-"""The ``@ti.func`` terms of the drag effect (declared, with its physics, in :mod:`..effects.drag`)."""
+"""The ``@ti.func`` terms of the drag effect (declared, with its physics, in :mod:`..drag`)."""
 
 import taichi as ti
 
-from ..schema import Body, Param
+from ...data.schema import Body, Param
 
 
 @ti.func

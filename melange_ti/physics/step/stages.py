@@ -19,12 +19,12 @@ and run in one of two forms that give the same bits:
   (no launch cost: the form for small N on the CPU);
 - **parallel**: each stage's parts launched as kernels (:func:`run_part`), their outer loop
   parallel (over bodies, or over islands for the impulse pass and the correction's sweeps:
-  :mod:`.islands`; with islands off, over contiguous groups of bodies: :mod:`.groups`),
+  :mod:`..forms.islands`; with islands off, over contiguous groups of bodies: :mod:`..forms.groups`),
   except the parts that must be sequential (``sequential``: the cell
   scan, finding the islands, adding the energy terms to the run-wide sums in order). :class:`melange_ti.model.Model` walks
   :data:`STEP` and can time every stage (:meth:`Model.profile`, like Box2D's profile).
 
-Kernels take the model's ndarrays (:class:`.schema.Arrays`) and the frozen effect set ``fx``
+Kernels take the model's ndarrays (:class:`..data.schema.Arrays`) and the frozen effect set ``fx``
 as a template, so they compile once per effect set and precision and serve every model of
 any size; parameters such as ``dt`` are read at run time from ``par``. Every term is guarded
 by ``ti.static``: an effect the scene does not name is not compiled, and a part it does not
@@ -33,10 +33,11 @@ need is not launched.
 
 import taichi as ti
 
-from . import broad, correction, device, forces, groups, impulses, islands, narrow
-from .effects import REGISTRY
-from .schema import ACCUMULATORS, BODIES, COUNTERS, Arrays, Counter, allocated
-from .step_parts import Part, Rounds, Stage, always, collisions, contacts  # noqa: F401  (the step's vocabulary)
+from ..data.schema import ACCUMULATORS, BODIES, COUNTERS, Arrays, Counter, allocated
+from ..effects import REGISTRY
+from ..forms import device, groups, islands
+from . import broad, correction, forces, impulses, narrow
+from .parts import Part, Rounds, Stage, always, collisions, contacts  # noqa: F401  (the step's vocabulary)
 
 MAX_DETECT = 16  # rounds of (detection,) impulse pass and check per step
 
@@ -294,7 +295,7 @@ def sample_into(fx: ti.template(), a: ti.template(), out: ti.template(), out_acc
     b = ti.static(a.b)
     # constant indices, as the step's own: in a fused launch Taichi may keep a slot the step
     # writes at a constant index in a register across the loop, which a load at a variable
-    # index would not see (the waves' ledger read stale so)
+    # index would not see (docs/architecture.md: a Taichi hazard)
     for c in ti.static(range(ACCUMULATORS.size)):
         out_acc[k, c] = a.acc[c]
     for c in ti.static(range(COUNTERS.size)):

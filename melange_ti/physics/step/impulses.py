@@ -5,8 +5,8 @@ Per contact with point p, unit normal n (from body j to body i) and arms r_k = p
 applied only when the pair approaches and would touch within the step (speculative
 contacts); each impulse dissipates exactly ``0.5 (1 - e^2) (v_rel . n)^2 / K``
 (``Acc.COLLISION``). A named effect with an ``impulse`` term replaces that impulse (friction:
-one impulse with a tangential part, :func:`..terms.friction.impulse`) and books ledgers of
-its own; every ledger of the law goes through one list (:func:`.schema.law_ledgers`) in
+one impulse with a tangential part, :func:`..effects.terms.friction.impulse`) and books ledgers of
+its own; every ledger of the law goes through one list (:func:`..data.schema.law_ledgers`) in
 every form. The wall is a partner of infinite mass (j < 0).
 
 The pass is sequential in a fixed order: body i ascending, its wall contact first, then its
@@ -19,11 +19,11 @@ reach it was searched with (a struck iceberg in a packed row), detection runs ag
 
 import taichi as ti
 
+from ..data.schema import Acc, Body, BodyInt, Config, Contact, Counter, Param, law_ledgers
+from ..effects import IMPULSE_LAW
+from ..shape.discs import cross2
 from .broad import outran
-from .discs import cross2
-from .effects import IMPULSE_LAW
 from .forces import contact_mass
-from .schema import Acc, Body, BodyInt, Config, Contact, Counter, Param, law_ledgers
 
 
 def contact_law(fx):
@@ -91,7 +91,7 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
     """Apply the impulse of the contact law to the pair (i, j) (j < 0: the wall) if it approaches.
 
     Its energy terms and impulse go to the run-wide sums (``acc``) at once, or, with
-    ``defer`` (islands solved side by side, :mod:`.islands`), to the contact's ``DEF_*``
+    ``defer`` (islands solved side by side, :mod:`..forms.islands`), to the contact's ``DEF_*``
     columns at ``[slot, i]``, which :func:`book` adds to ``acc`` afterwards in this pass's
     order, so that the sums are the same bits."""
     b = ti.static(a.b)
@@ -112,9 +112,8 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
         jn = 0.0
         terms = ti.Vector(ti.static([0.0] * len(law_ledgers(fx))))
         if ti.static(contact_law(fx) in IMPULSE_LAW):
-            jn, terms = contact_law(fx).impulse(
-                fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, kk, m1, i1, a1, m2, i2, a2, kick_vn
-            )
+            impulse = ti.static(contact_law(fx).impulse)
+            jn, terms = impulse(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, kk, m1, i1, a1, m2, i2, a2, kick_vn)
         else:
             jn = -(1.0 + e) * vn / kk
             push(a, i, j, jn, nx, nz, m1, i1, a1, m2, i2, a2)

@@ -11,11 +11,11 @@ energy the pushes add is booked per moved body (``Acc.CORRECTION``, ``correction
 
 import taichi as ti
 
+from ..data.schema import Acc, Body, BodyInt, Contact, Param
+from ..numerics import TINY
+from . import wall
 from .forces import contact_mass, potential_energy
 from .impulses import contact, contact_range, normal_speed
-from .numerics import TINY
-from .schema import Acc, Body, BodyInt, Contact, Param
-from .terms import wall
 
 MAX_CORRECT = 4  # correction sweeps while some overlap is still being pushed apart
 

@@ -1,9 +1,9 @@
-"""The ``@ti.func`` terms of the added_mass effect (declared, with its physics, in :mod:`..effects.added_mass`)."""
+"""The ``@ti.func`` terms of the added_mass effect (declared, with its physics, in :mod:`..added_mass`)."""
 
 import taichi as ti
 
-from ..hydrostatics import wetted
-from ..schema import Body, Param
+from ...data.schema import Body, Param
+from ...shape.hydrostatics import wetted
 
 
 @ti.func
