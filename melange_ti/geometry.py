@@ -27,7 +27,7 @@ def disc_radius(width, thickness, discs: int, spacing: float = 2.0):
 
 
 def disc_local(width, thickness, discs: int, spacing: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
-    """Body-frame disc centres (N, discs, 2) and radii (N,), as ``physics.discs.disc_local``.
+    """Body-frame disc centres (N, discs, 2) and radii (N,), as ``physics.shape.discs.disc_local``.
 
     ``k = discs/4`` discs per face; face ``f`` starts at a corner of the rectangle inset by
     the radius and takes ``k`` equal steps towards the next inset corner.

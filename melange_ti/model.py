@@ -216,8 +216,8 @@ class Model:
 
     def effect(self, name: str):
         """The host side (:class:`~melange_ti.physics.effects.State`) of the named effect that
-        owns state (docs/api.md names each one's methods). ``KeyError`` if the model has none
-        by that name."""
+        owns state (its methods: the effect's ``host.py``; docs/architecture.md). ``KeyError``
+        if the model has none by that name."""
         if self.owned is None or self.fx.owner.name != name:
             raise KeyError(f"the model's scene names no effect {name!r} that owns state")
         return self.owned

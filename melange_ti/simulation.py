@@ -536,7 +536,10 @@ class Simulation:
         (:meth:`Model.advance_sampled`): up to the first where an output that needs the
         model itself is due (a snapshot or checkpoint: ``from_sample`` false) or the end,
         at most ``BATCH_MAX`` events and ``BATCH_BYTES`` of samples."""
-        cap = max(1, min(BATCH_MAX, BATCH_BYTES // (8 * self.model.n * len(SAMPLE_NAMES))))
+        per_event = 8 * self.model.n * len(SAMPLE_NAMES)
+        if self.model.owned is not None:  # and a copy of the owning effect's table per event
+            per_event += 8 * int(np.prod(self.model.arrays.own.shape))
+        cap = max(1, min(BATCH_MAX, BATCH_BYTES // per_event))
         stops = []
         while len(stops) < cap and step < self.total:
             step = min(min(o.schedule.next(step) for o in self.outputs if o.schedule is not None), self.total)

@@ -246,7 +246,7 @@ def test_grouping_by_differing_keys():
 
 
 def test_disc_layout_matches_the_model():
-    """The numpy disc layout used for drawing is the Taichi one (physics.discs.disc_local)."""
+    """The numpy disc layout used for drawing is the Taichi one (physics.shape.discs.disc_local)."""
     import taichi as ti
 
     from melange_ti.geometry import disc_local, disc_radius

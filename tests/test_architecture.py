@@ -112,3 +112,29 @@ def test_columns_import_alone():
     code = "import melange_ti.physics.data.columns as c; print(sorted(n for n in vars(c) if n[0].isupper()))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert "Body" not in out and "Column" in out and "Table" in out
+
+
+def test_a_declaration_that_the_writer_could_not_follow_is_refused():
+    """A dataset over no dimension, or over one the effect does not declare, would be written
+    in runs that do not name the effect, or never; ledgers of the contact law need its impulse."""
+    from melange_ti.physics.data.columns import Column
+    from melange_ti.physics.effects.base import Dataset, Effect
+
+    cell = (("cell", "a cell"),)
+    ok = Effect(name="trial", doc="", dims=cell, datasets=(Dataset("snapshots/h", ("cell",), "w", "h"),))
+    assert ok.datasets[0].name == "h" and ok.datasets[0].group == "snapshots"
+    with pytest.raises(ValueError, match="dimensions it declares"):
+        Effect(name="trial", doc="", dims=cell, datasets=(Dataset("snapshots/h", (), "w", "h"),))
+    with pytest.raises(ValueError, match="dimensions it declares"):
+        Effect(name="trial", doc="", dims=cell, datasets=(Dataset("snapshots/h", ("iceberg",), "w", "h"),))
+    ledger = Column("TRIAL", "ledger", "rho_w g w^3", "a trial ledger", "trial_work", budget=True)
+    with pytest.raises(ValueError, match="impulse"):
+        Effect(name="trial", doc="", law_ledgers=(ledger,))
+
+
+def test_a_scene_naming_an_owning_effect_twice_is_not_refused_as_two_owners():
+    from melange_ti.scene import load
+
+    for effect in OWNERS:
+        scene = load(None, [("scene.effects", ["gravity", "buoyancy", effect.name, effect.name])])
+        assert getattr(scene.effects, effect.name)

@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import diagnostics as diag
-from ..diagnostics import ENERGY_LEDGERS
+from ..diagnostics import ENERGY_LEDGERS, HELD
+from ..energy import total_energy
 
 Series = tuple[np.ndarray, np.ndarray]
 
@@ -221,7 +222,10 @@ def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray
         for term, name in LEDGER_TERMS.items()
     }
     we = np.asarray(diagnostics["wave_energy"], dtype=float) if "wave_energy" in diagnostics else np.zeros_like(pe)
-    energy = ke + pe + we
+    # E: the one sum (melange_ti.energy), of every energy part of it the file holds
+    names = ("kinetic_energy", "potential_energy", *HELD)
+    parts = {k: np.asarray(diagnostics[k], dtype=float) for k in names if k in diagnostics}
+    energy = np.asarray(total_energy(parts), dtype=float)
     total_loss = energy[0] - energy
     return {
         "released": pe[0] - pe,

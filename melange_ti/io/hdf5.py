@@ -178,12 +178,14 @@ class RunWriter:
         sizes = dict(own.get("dims", {}))
         scales = {}
         for name, size in sizes.items():
+            if size <= 0:
+                continue
             scales[name] = f.create_dataset(name, data=np.arange(size, dtype=np.int64))
             scales[name].attrs.update({"units": "1", "long_name": DIMS[name]})
             scales[name].make_scale(name)
         for d in DATASETS:
-            if not all(dim in sizes for dim in d.dims):
-                continue  # an effect the scene does not name
+            if not all(sizes.get(dim, 0) > 0 for dim in d.dims):
+                continue  # an effect the scene does not name (or a dimension of no length)
             shape = tuple(sizes[dim] for dim in d.dims)
             if d.group == "snapshots":
                 rows_d = max(1, min(64, 65536 // max(1, int(np.prod(shape)))))

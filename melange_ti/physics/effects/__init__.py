@@ -1,12 +1,14 @@
 """The effects a scene may name (``scene.effects``): one module each, listed in :data:`REGISTRY`.
 
 Each module declares an :class:`~.base.Effect`: its ``[physics]`` keys and their checks, its
-parameter slots, its per-iceberg columns (an energy ledger among them) and which
-``@ti.func`` terms it has, written in ``physics/terms/NAME.py`` (this package imports no
-Taichi). From the registry come the scene's keys and validation (:mod:`melange_ti.scene`),
-the parameter fill (:mod:`melange_ti.model`), the schema's columns (:mod:`..schema`), the
+parameter slots, its per-iceberg columns (an energy ledger among them), which ``@ti.func``
+terms it has and where (its ``kernels``: ``terms/NAME.py``, imported by name when a kernel
+is compiled: this package imports no Taichi), and what state it owns (the waves: a package
+of their own, ``waves/``). From the registry come the scene's keys and validation
+(:mod:`melange_ti.scene`), the parameter fill and the owned state (:mod:`melange_ti.model`),
+the schema's columns (:mod:`..data.schema`), the step's stages, the run file, the
 diagnostics and the energy budget. To add an effect: write its declaration here and its
-terms there, add it to :data:`REGISTRY`, and describe it in the docs.
+kernels, add it to :data:`REGISTRY`, and describe it in the docs (docs/architecture.md).
 
 The order is the order in which forces are summed, and so part of the results' bits.
 """

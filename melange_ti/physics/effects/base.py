@@ -176,6 +176,12 @@ class Effect:
             raise ValueError(f"effect {self.name}: unknown terms {sorted(unknown)} (known: {', '.join(TERMS)})")
         if self.terms and self.kernels is None:
             raise ValueError(f"effect {self.name}: terms {self.terms} need kernels (the module that holds them)")
+        if self.law_ledgers and "impulse" not in self.terms:
+            raise ValueError(f"effect {self.name}: law_ledgers are booked from its impulse term, which it lacks")
+        own_dims = {name for name, _ in self.dims}
+        for d in self.datasets:  # over its own dimensions only: the writer makes them from its State
+            if not d.dims or not set(d.dims) <= own_dims:
+                raise ValueError(f"effect {self.name}: dataset {d.path} must lie over dimensions it declares {sorted(own_dims)}")
 
     def on(self, fx) -> bool:
         """Whether the frozen effect set ``fx`` names this effect (use inside ``ti.static``)."""
@@ -240,5 +246,5 @@ class State:
         return {}
 
     def refresh(self, model) -> None:
-        """After the host set its table (a checkpoint, a test): recompute what the step
-        keeps from it (a kernel of its own, on ``model.arrays``)."""
+        """After the host set part of its table (a script, a test): recompute what the step
+        keeps from it (a checkpoint restores the whole table, caches included) (a kernel of its own, on ``model.arrays``)."""

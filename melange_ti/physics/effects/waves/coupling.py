@@ -170,7 +170,7 @@ def eta_at(a: ti.template(), q):
 def force(a: ti.template(), i):
     """The wave's pressure on iceberg i beyond its still-water buoyancy, ``(f_x, f_z, tau)``:
     minus the gradient over the pose of ``rho g sum_q eta_q A_q``, ``A_q`` the iceberg's
-    submerged area in strip q (:mod:`.effects.waves`). Per strip from a to b:
+    submerged area in strip q (:mod:`melange_ti.physics.effects.waves`). Per strip from a to b:
     ``dA/dx_G = h(a) - h(b)``, ``dA/dz_G = -L`` (the waterline's length in it),
     ``dA/dtheta = M1(b) - M1(a) - int_L (x - x_G) dx``. Also keeps the pose at the step's
     start, for :func:`deposit`."""
