@@ -164,7 +164,7 @@ class Model:
             own=ti.ndarray(self.real, shape=(self.owned.rows, owner.table.size) if self.owned is not None else (1, 1)),
         )
         # where :meth:`sample` puts what it fetches (numpy: the kernel writes it in place)
-        self._out, self._out_acc, self._out_cnt, _ = self._sample_buffers(1)
+        self._out, self._out_acc, self._out_cnt = self._sample_buffers(1, table=False)
 
         a = self.arrays
         p = scene.physics
@@ -276,15 +276,18 @@ class Model:
         self._check_overflow()
         return [self._unpack(*bufs, k) for k in range(len(segments))]
 
-    def _sample_buffers(self, count: int) -> tuple[np.ndarray, ...]:
-        """Where a launch puts its samples; the last, a copy of the owning effect's table per
-        sample (a sample of one element without one)."""
-        return (
+    def _sample_buffers(self, count: int, table: bool = True) -> tuple[np.ndarray, ...]:
+        """Where a launch puts its samples; with ``table``, also a copy of the owning effect's
+        table per sample (one element without one), as the fused launch writes it."""
+        bufs = (
             np.zeros((count, self.n, len(stages.SAMPLE_NAMES)), dtype=self.np_real),
             np.zeros((count, ACCUMULATORS.size), dtype=np.float64),
             np.zeros((count, COUNTERS.size), dtype=np.int64),
-            np.zeros((count, *(self.arrays.own.shape if self.owned is not None else (1, 1))), dtype=self.np_real),
         )
+        if not table:
+            return bufs
+        shape = self.arrays.own.shape if self.owned is not None else (1, 1)
+        return (*bufs, np.zeros((count, *shape), dtype=self.np_real))
 
     def _unpack(self, out, out_acc, out_cnt, out_own, k: int) -> tuple[dict[str, np.ndarray], Totals]:
         """Sample ``k`` of the buffers; the owning effect's part from its table, copied in the

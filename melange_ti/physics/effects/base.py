@@ -245,6 +245,7 @@ class State:
         """Its snapshot datasets (by name) and held energies at an output event."""
         return {}
 
-    def refresh(self, model) -> None:
+    def refresh(self) -> None:
         """After the host set part of its table (a script, a test): recompute what the step
-        keeps from it (a checkpoint restores the whole table, caches included) (a kernel of its own, on ``model.arrays``)."""
+        keeps from it, with a kernel of its own on ``self.model.arrays`` (a checkpoint
+        restores the whole table, caches included)."""

@@ -31,6 +31,8 @@ by ``ti.static``: an effect the scene does not name is not compiled, and a part 
 need is not launched.
 """
 
+from dataclasses import replace
+
 import taichi as ti
 
 from ..data.schema import ACCUMULATORS, BODIES, COUNTERS, Arrays, Counter, allocated
@@ -159,8 +161,6 @@ def _with_effects(base: tuple) -> tuple:
 
 def stage_of(effect, stage: Stage) -> Stage:
     """``stage``, run only when the scene names ``effect``."""
-    from dataclasses import replace
-
     return replace(stage, needs=lambda fx: effect.on(fx) and stage.needs(fx), owner=effect.name)
 
 

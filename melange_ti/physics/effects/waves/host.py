@@ -79,10 +79,10 @@ class WaveGrid(State):
         w = self.surface(rows)
         return {"eta": w["eta"], "wave_energy": np.array(self.energy(w))}
 
-    def refresh(self, model) -> None:
+    def refresh(self) -> None:
         from .kernels import refresh
 
-        a = model.arrays
+        a = self.model.arrays
         refresh(a.cfg, a.own)
 
     # ------------------------------------------------------------ for scripts and tests
@@ -92,4 +92,4 @@ class WaveGrid(State):
         rows[: self.cells, Wave.ETA] = eta
         rows[: self.cells, Wave.PHI] = 0.0 if phi is None else phi
         self.model.arrays.own.from_numpy(rows)
-        self.refresh(self.model)
+        self.refresh()
