@@ -67,6 +67,21 @@ def _held_fields() -> tuple[Field, ...]:
     return tuple(field(q) for eff in REGISTRY for q in eff.held)
 
 
+def _report_fields() -> tuple[Field, ...]:
+    """Every diagnostic an effect reports beyond energies (its declaration's ``reports``), a
+    count: the value its sample gives; without the effect, ``fragments`` is the icebergs'
+    count (each its own piece) and any other 0."""
+
+    def field(q) -> Field:
+        if q.name == "fragments":
+            compute = lambda e: int(e.sample.get(q.name, np.size(e.sample["x"])))  # noqa: E731
+        else:
+            compute = lambda e: int(e.sample.get(q.name, 0))  # noqa: E731
+        return Field(q.name, "i8", q.units, q.doc, compute, q.since)
+
+    return tuple(field(q) for eff in REGISTRY for q in eff.reports)
+
+
 HELD: tuple[str, ...] = tuple(q.name for eff in REGISTRY for q in eff.held)  # energies part of E beyond the icebergs'
 
 FIELDS: tuple[Field, ...] = (
@@ -118,6 +133,7 @@ FIELDS: tuple[Field, ...] = (
         lambda e: e.rate("impulse_sum"),
         since=3,
     ),
+    *_report_fields(),
 )
 NAMES: tuple[str, ...] = tuple(f.name for f in FIELDS)
 

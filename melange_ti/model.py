@@ -179,6 +179,8 @@ class Model:
         rows[:, Body.BOUND] = bound
         for name, col in BODIES.outputs("state").items():
             rows[:, col] = getattr(bergs, name)
+        if self.owned is not None:  # the owning effect's per-iceberg columns
+            self.owned.bodies(rows)
         m_real = mass.astype(self.np_real)
         rows[:, Body.INV_MASS] = self.np_real(1.0) / m_real  # as the device would round it
         a.b.from_numpy(rows.astype(self.np_real))
@@ -294,7 +296,7 @@ class Model:
         launch (``out_own``) or, ``None``, fetched now: the same values."""
         sample = {name: out[k, :, q].copy() for q, name in enumerate(stages.SAMPLE_NAMES)}
         if self.owned is not None:
-            sample.update(self.owned.sample(self.own_rows() if out_own is None else out_own[k]))
+            sample.update(self.owned.sample(self.own_rows() if out_own is None else out_own[k], sample))
         return sample, self._totals(out_acc[k], out_cnt[k])
 
     def totals(self) -> Totals:

@@ -115,8 +115,9 @@ def test_columns_import_alone():
 
 
 def test_a_declaration_that_the_writer_could_not_follow_is_refused():
-    """A dataset over no dimension, or over one the effect does not declare, would be written
-    in runs that do not name the effect, or never; ledgers of the contact law need its impulse."""
+    """A dataset over no dimension, over one the effect does not declare, or over the icebergs'
+    alone by an effect that declares none, would be written in runs that do not name the
+    effect, or never; ledgers of the contact law need its impulse."""
     from melange_ti.physics.data.columns import Column
     from melange_ti.physics.effects.base import Dataset, Effect
 
@@ -126,7 +127,11 @@ def test_a_declaration_that_the_writer_could_not_follow_is_refused():
     with pytest.raises(ValueError, match="dimensions it declares"):
         Effect(name="trial", doc="", dims=cell, datasets=(Dataset("snapshots/h", (), "w", "h"),))
     with pytest.raises(ValueError, match="dimensions it declares"):
-        Effect(name="trial", doc="", dims=cell, datasets=(Dataset("snapshots/h", ("iceberg",), "w", "h"),))
+        Effect(name="trial", doc="", datasets=(Dataset("snapshots/h", ("iceberg",), "w", "h"),))
+    with pytest.raises(ValueError, match="dimensions it declares"):
+        Effect(name="trial", doc="", dims=cell, datasets=(Dataset("snapshots/h", ("other",), "w", "h"),))
+    per_berg = Effect(name="trial", doc="", dims=cell, datasets=(Dataset("snapshots/h", ("iceberg",), "w", "h"),))
+    assert per_berg.datasets[0].dims == ("iceberg",)
     ledger = Column("TRIAL", "ledger", "rho_w g w^3", "a trial ledger", "trial_work", budget=True)
     with pytest.raises(ValueError, match="impulse"):
         Effect(name="trial", doc="", law_ledgers=(ledger,))

@@ -25,6 +25,10 @@ Files written to ``--out`` (each figure as PNG and PDF):
 - ``impulse_rate_wall_force``: collision impulse rate (a seismic proxy) and force on the wall
 - ``capsized_fraction_by_thickness_std``: Fig. 3 grouped by ``shelf.thickness_std`` (only when
   the runs have several spreads)
+- ``fragments``: with the ``bonds`` effect, the sizes of the pieces of ice (icebergs held
+  together by intact bonds) at the end, as the complementary CDF on log-log axes with the
+  exponent fitted per run (:func:`fit_power_law`) and the 2-D fragmentation reference 3/2
+  (only when some run has bonds); ``fragments.csv``: per run, its pieces and exponent
 - ``summary.csv``: per group, runs, times of 50% / 90% capsized, final leading edge, energy
 """
 
@@ -44,13 +48,14 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
 
 from ..diagnostics import ENERGY_LEDGERS  # noqa: E402
 from ..errors import RunError  # noqa: E402
 from ..io.hdf5 import OutputError, is_partial, read_run  # noqa: E402
 from ..scene import SceneError, stored_scene  # noqa: E402
 from . import stats  # noqa: E402
-from .render import IcebergArtist, draw_sea, phi_colorbar, rect_corners, wave_surface  # noqa: E402
+from .render import BOND, BondFaces, IcebergArtist, draw_sea, phi_colorbar, rect_corners, wave_surface  # noqa: E402
 from .runs import Group, Run, check_times, default_times, last_snapshot_time, load_run, make_groups, parse_times, snap_times
 
 G_SI = 9.81  # m s^-2
@@ -58,6 +63,7 @@ RHO_WATER_SI = 1025.0  # kg m^-3, docs/model.md
 BIN_WIDTH = 10.0  # widths, paper Fig. 5
 SNAPSHOT_SPAN = 30.0  # widths behind the leading edge shown in Fig. 2
 DPI = 150
+LABEL_WIDTH = 70  # characters a line of a group's label in a legend or panel title
 
 
 # ---------------------------------------------------------------------------------------
@@ -143,8 +149,10 @@ def _band(ax, ens: stats.Ensemble, color, label: str, **kw) -> None:
 
 
 def _label(group: Group) -> str:
+    """The group's label with its run count, wrapped: a run that changed many keys (a bonded
+    shelf's) had a legend wider than the figure, which collapsed the axes."""
     n = len(group.runs)
-    return f"{group.label} ({n} run{'s' if n != 1 else ''})"
+    return textwrap.fill(f"{group.label} ({n} run{'s' if n != 1 else ''})", LABEL_WIDTH)
 
 
 def _tmax(groups: Sequence[Group]) -> float:
@@ -268,15 +276,22 @@ def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float],
         nrow, ncol, figsize=(panel_w * ncol + 1.0, panel_h * nrow + 1.4), squeeze=False, layout="constrained"
     )
     mappable = None
+    bonded = False
     for c, (g, col) in enumerate(zip(shown, windows, strict=True)):
         r = g.runs[0]
         w, h = r.data["icebergs"]["width"], r.data["icebergs"]["thickness"]
+        faces = BondFaces.read(r.path, r.data)
         for row, (k, sel, _, x1) in enumerate(col):
             ax = axes[row, c]
             draw_sea(ax, r.scene, (zlo, zhi), wave_surface(r.data, k))
             art = IcebergArtist(ax, w[sel], h[sel], discs=r.scene.contacts.discs)
             art.update(r.snaps["x"][k][sel], r.snaps["z"][k][sel], r.snaps["theta"][k][sel])
             mappable = art.rects
+            if faces is not None:  # the bonds effect: the bonds intact then, on the faces they glue
+                x, z, th = r.snaps["x"][k], r.snaps["z"][k], r.snaps["theta"][k]
+                segments = faces.segments(x, z, th, float(r.snaps["time"][k]), keep=sel)
+                ax.add_collection(LineCollection(segments, colors=BOND, linewidths=1.2, zorder=5.5))
+                bonded = True
             ax.set_xlim(x1 - width_w, x1)
             ax.set_ylim(zlo, zhi)
             ax.set_aspect("equal")
@@ -290,7 +305,10 @@ def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float],
             if row == nrow - 1:
                 ax.set_xlabel("x (widths)")
     phi_colorbar(fig, mappable, axes.ravel().tolist(), shrink=0.8, fraction=0.04)
-    fig.suptitle("The leading edge of the mélange (icebergs coloured by capsize angle, with their collision discs)", fontsize=10)
+    bonds = "; cyan: the bonds intact at that time" if bonded else ""
+    fig.suptitle(
+        f"The leading edge of the mélange (icebergs coloured by capsize angle, with their collision discs{bonds})", fontsize=10
+    )
     return fig
 
 
@@ -305,6 +323,9 @@ ENERGY_STYLE = {
     "friction": ("friction dissipated", "tab:cyan", "-", 1.2),
     "waves": ("wave energy gained", "tab:olive", "-", 1.2),
     "wave_absorbed": ("wave energy absorbed at the open end", "tab:gray", "-", 1.2),
+    "bonds": ("bonds' elastic energy gained", "gold", "-", 1.2),
+    "bond_damping": ("bond dashpots dissipated", "tab:pink", "-", 1.2),
+    "fracture_released": ("elastic energy of broken bonds", "darkgoldenrod", "--", 1.2),
     "residual": ("residual: energy lost but not booked (the time integrator's error)", "0.4", "--", 1.2),
 }
 
@@ -378,6 +399,212 @@ def fig_impulse_wall(groups: Sequence[Group], units: Units):
 
 
 # ---------------------------------------------------------------------------------------
+# Fragments (the bonds effect)
+
+# 2-D fragmentation: the number of pieces of size s falls as s^-3/2 (Astrom et al. 2004,
+# Phys. Rev. E 70, 026606); a reference drawn and reported, never fitted to
+FRAGMENTATION_TAU = 1.5
+
+
+def fragment_sizes(labels) -> np.ndarray:
+    """The size of each piece of ice (number of icebergs) in one snapshot's fragment labels
+    (``snapshots/fragment``: any label shared by the icebergs of a piece), ascending."""
+    _, counts = np.unique(np.asarray(labels), return_counts=True)
+    return np.sort(counts)
+
+
+def ccdf(sizes) -> tuple[np.ndarray, np.ndarray]:
+    """``(s, P)``: each distinct size ``s`` (ascending) and the fraction of pieces at least
+    that large, ``P(S >= s)`` (1 at the smallest)."""
+    sizes = np.sort(np.asarray(sizes))
+    s, first = np.unique(sizes, return_index=True)
+    return s, 1.0 - first / len(sizes)
+
+
+@dataclass(frozen=True)
+class PowerLaw:
+    """A discrete power law ``n(s) ~ s^-tau`` for ``s_min <= s <= s_max`` fitted to ``n``
+    sizes; ``error``: the fit's standard error ``1 / sqrt(n Var(ln s))`` (Fisher)."""
+
+    tau: float
+    error: float
+    n: int
+    s_min: int
+    s_max: int
+
+    def ccdf(self, s) -> np.ndarray:
+        """The model's ``P(S >= s)`` at sizes ``s``."""
+        support = np.arange(self.s_min, self.s_max + 1)
+        p = _weights(self.tau, np.log(support))
+        tail = np.cumsum(p[::-1])[::-1]
+        return tail[np.clip(np.asarray(s, dtype=int) - self.s_min, 0, len(support) - 1)]
+
+
+def _weights(tau: float, log_s: np.ndarray) -> np.ndarray:
+    """``s^-tau`` normalised over the support ``exp(log_s)`` (in logs: no overflow)."""
+    x = -tau * log_s
+    w = np.exp(x - x.max())
+    return w / w.sum()
+
+
+def fit_power_law(sizes, s_max: int, s_min: int = 1) -> PowerLaw:
+    """Maximum likelihood exponent ``tau`` of a discrete power law ``p(s) ~ s^-tau`` on the
+    integers ``s_min .. s_max`` (truncated: a run of N icebergs has no piece larger than N)
+    from the sizes at least ``s_min``. The likelihood is concave in ``tau``; its maximum is
+    where the model's mean of ``ln s`` equals the sample's, found by bisection. ``tau`` is
+    NaN where no power law is defined: fewer than two pieces, or all of one size at an end
+    of the range (every piece one iceberg: tau -> infinity)."""
+    sizes = np.asarray(sizes)
+    s_max = int(s_max)
+    sizes = sizes[sizes >= s_min]
+    if np.any(sizes > s_max):
+        raise ValueError(f"a piece of {int(sizes.max())} icebergs is larger than s_max = {s_max}")
+    n = len(sizes)
+    nan = PowerLaw(math.nan, math.nan, n, s_min, s_max)
+    log_s = np.log(np.arange(s_min, s_max + 1, dtype=float))
+    target = float(np.mean(np.log(sizes))) if n else math.nan
+    lo, hi = -30.0, 60.0  # the model's mean of ln s falls with tau from ~ln s_max to ~ln s_min
+
+    def mean_log(tau: float) -> float:
+        return float(_weights(tau, log_s) @ log_s)
+
+    if n < 2 or s_max <= s_min or not mean_log(hi) < target < mean_log(lo):
+        return nan
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if mean_log(mid) > target else (lo, mid)
+        if hi - lo < 1e-12:
+            break
+    tau = 0.5 * (lo + hi)
+    p = _weights(tau, log_s)
+    var = float(p @ log_s**2 - (p @ log_s) ** 2)
+    return PowerLaw(tau, 1.0 / math.sqrt(n * var) if var > 0 else math.nan, n, s_min, s_max)
+
+
+def has_fragments(run: Run) -> bool:
+    """A run with the bonds effect: its file holds each snapshot's fragment labels."""
+    return "fragment" in run.snaps
+
+
+def check_fragments(run: Run) -> None:
+    """Every snapshot's fragment labels are iceberg indices (a corrupted file is one line,
+    not a wrong figure); nothing to check without the bonds effect."""
+    if not has_fragments(run):
+        return
+    labels = np.asarray(run.snaps["fragment"])
+    n = len(run.data["icebergs"]["width"])
+    bad = (labels < 0) | (labels >= n) if labels.dtype.kind in "iu" else np.ones(labels.shape, bool)
+    if labels.ndim != 2 or labels.shape[1] != n or bad.any():
+        k = int(np.argmax(bad.any(axis=-1))) if labels.ndim == 2 and bad.any() else 0
+        raise OutputError(f"{run.path}: /snapshots/fragment (snapshot {k}) holds labels that are not iceberg indices 0..{n - 1}")
+
+
+@dataclass
+class RunFragments:
+    run: Run
+    time: float
+    sizes: np.ndarray
+    fit: PowerLaw
+
+
+def run_fragments(run: Run, t: float) -> RunFragments:
+    """The pieces of ``run`` at its snapshot nearest to ``t`` and their fitted exponent."""
+    k = stats.nearest_index(run.snaps["time"], t)
+    sizes = fragment_sizes(run.snaps["fragment"][k])
+    return RunFragments(run, float(run.snaps["time"][k]), sizes, fit_power_law(sizes, s_max=int(sizes.sum())))
+
+
+def fragments_time(runs: Sequence[Run]) -> float:
+    """The time the figure shows: the last snapshot of the bonded run that ends first."""
+    return last_snapshot_time([r for r in runs if has_fragments(r)])
+
+
+def exponent_text(fits: Sequence[PowerLaw]) -> str:
+    """``tau = mean ± s.d. over seeds`` (one run: ± its fit's standard error), in words."""
+    taus = np.array([f.tau for f in fits])
+    ok = np.isfinite(taus)
+    if not ok.any():
+        return "no exponent (every piece one iceberg, or one piece)"
+    if len(fits) == 1:
+        return f"τ = {taus[0]:.2f} ± {fits[0].error:.2f} (standard error of the fit)"
+    part = "" if ok.all() else f" of {ok.sum()} runs fitted"
+    return f"τ = {taus[ok].mean():.2f} ± {taus[ok].std():.2f} (s.d. over {ok.sum()} seeds{part})"
+
+
+def fig_fragments(groups: Sequence[Group], t: float):
+    """The sizes of the pieces of ice at time ``t`` (each run's nearest snapshot): the
+    complementary CDF per run on log-log axes, the power law fitted per run (dashed: at the
+    group's mean exponent) and the 2-D fragmentation reference ``tau = 3/2`` (slope -1/2)."""
+    fig, ax = plt.subplots(figsize=(7.5, 5.6), layout="constrained")
+    shown = [g for g in groups if any(has_fragments(r) for r in g.runs)]
+    s_top, p_low = 1, 1.0
+    for g, color in zip(shown, _colors(len(shown)), strict=True):
+        pieces = [run_fragments(r, t) for r in g.runs if has_fragments(r)]
+        for j, p in enumerate(pieces):
+            s, prob = ccdf(p.sizes)
+            label = textwrap.fill(f"{_label(g)}: {exponent_text([q.fit for q in pieces])}", 110) if j == 0 else None
+            # P(S >= s) holds its value at s_k on (s_(k-1), s_k]: steps drawn before each point
+            ax.plot(s, prob, color=color, marker="o", ms=3, lw=0.9, alpha=0.7, drawstyle="steps-pre", label=label)
+            s_top, p_low = max(s_top, p.fit.s_max), min(p_low, float(prob[-1]))
+        taus = [p.fit.tau for p in pieces if math.isfinite(p.fit.tau)]
+        if taus:
+            s_max = max(p.fit.s_max for p in pieces)
+            model = PowerLaw(float(np.mean(taus)), math.nan, 0, 1, s_max)
+            grid = np.unique(np.round(np.geomspace(1, s_max, 200)).astype(int))
+            ax.plot(grid, model.ccdf(grid), color=color, ls="--", lw=1.0)
+    grid = np.geomspace(1, max(s_top, 2), 50)
+    ax.plot(
+        grid,
+        grid ** (1.0 - FRAGMENTATION_TAU),
+        color="k",
+        ls=":",
+        lw=1.2,
+        label="2-D fragmentation reference, τ = 3/2 (Åström et al. 2004): slope −1/2, not fitted",
+    )
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(0.8, 1.25 * max(s_top, 2))
+    ax.set_ylim(0.4 * p_low, 1.4)  # the data's range (the fitted law falls to 0 at the run's size)
+    ax.set_xlabel("piece size s (icebergs held together by intact bonds)")
+    ax.set_ylabel("fraction of pieces at least s icebergs in size")
+    ax.grid(alpha=0.3, which="both")
+    fig.legend(fontsize=7, loc="outside lower center")
+    ax.set_title(
+        f"Pieces of ice at t = {t:g}: the fraction at least s icebergs in size, one curve per run\n"
+        "τ: the number of pieces of size s falls as s^−τ (1 ≤ s ≤ the run's icebergs), fitted to each run by "
+        "maximum likelihood;\ndashed: that law at the group's mean τ",
+        fontsize=8,
+    )
+    return fig
+
+
+FRAGMENT_COLUMNS = ("group", "seed", "path", "t", "icebergs", "pieces", "largest", "tau", "tau_error")
+
+
+def fragment_rows(groups: Sequence[Group], t: float) -> list[dict]:
+    """``fragments.csv``: per bonded run, its pieces at ``t`` and the fitted exponent."""
+    rows = []
+    for g in groups:
+        for r in g.runs:
+            if has_fragments(r):
+                p = run_fragments(r, t)
+                rows.append(
+                    {
+                        "group": g.label,
+                        "seed": r.seed,
+                        "path": str(r.path),
+                        "t": p.time,
+                        "icebergs": int(p.sizes.sum()),
+                        "pieces": len(p.sizes),
+                        "largest": int(p.sizes.max()),
+                        "tau": p.fit.tau,
+                        "tau_error": p.fit.error,
+                    }
+                )
+    return rows
+
+
+# ---------------------------------------------------------------------------------------
 # Driver
 
 
@@ -445,10 +672,10 @@ SUMMARY_COLUMNS = (
 )
 
 
-def write_summary(rows: list[dict], path: Path) -> Path:
+def write_summary(rows: list[dict], path: Path, columns: Sequence[str] = SUMMARY_COLUMNS) -> Path:
     try:
         with open(path, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=SUMMARY_COLUMNS)
+            w = csv.DictWriter(fh, fieldnames=columns)
             w.writeheader()
             for row in rows:
                 w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
@@ -465,6 +692,7 @@ FIGURES = (
     "energy_budget",
     "impulse_rate_wall_force",
     "capsized_fraction_by_thickness_std",
+    "fragments",
 )
 
 
@@ -488,6 +716,9 @@ def plot(
     if unknown:
         raise ValueError(f"unknown figures {sorted(unknown)}; known: {', '.join(FIGURES)}")
     runs = [load_run(p) for p in paths]
+    for r in runs:  # the bonds effect's data, checked before anything is drawn
+        check_fragments(r)
+        BondFaces.read(r.path, r.data)
     units = Units(width_m=width_m if width_m is not None else runs[0].scene.width_m)
     out = Path(out)
     made = list(takewhile(lambda d: not d.exists(), (out, *out.parents)))  # innermost first
@@ -530,11 +761,17 @@ def _plot(runs: list[Run], out: Path, units: Units, times, wanted: set[str], wri
         makers["capsized_fraction_by_thickness_std"] = lambda: fig_capsized_fraction(
             make_groups(runs, keys=["shelf.thickness_std"]), units, title=title
         )
+    if any(has_fragments(r) for r in runs):  # the bonds effect
+        t_frag = fragments_time(runs)
+        makers["fragments"] = lambda: fig_fragments(groups, t_frag)
     for name, make in makers.items():
         if name in wanted:
             save(make(), out, name, written)
     written.append(out / "summary.csv")
     write_summary(summary_rows(groups), out / "summary.csv")
+    if "fragments" in makers and "fragments" in wanted:
+        written.append(out / "fragments.csv")
+        write_summary(fragment_rows(groups, t_frag), out / "fragments.csv", FRAGMENT_COLUMNS)
 
 
 def run_files(args: Sequence[str | Path]) -> list[Path]:
@@ -553,7 +790,7 @@ def run_files(args: Sequence[str | Path]) -> list[Path]:
 
 def refuse_overwrite(out: Path) -> None:
     """``melange-ti plot`` never replaces figures already in ``out`` unless ``--overwrite``."""
-    ours = {f"{n}.{ext}" for n in FIGURES for ext in ("png", "pdf")} | {"summary.csv"}
+    ours = {f"{n}.{ext}" for n in FIGURES for ext in ("png", "pdf")} | {"summary.csv", "fragments.csv"}
     there = sorted(p.name for p in out.iterdir() if p.name in ours) if out.is_dir() else []
     if there:
         raise RunError(
@@ -584,5 +821,15 @@ def main(args) -> int:
             f"{row['group']}: {row['runs']} run(s); at t = {row['t_end']} capsized {float(row['capsized_fraction_end']):.3f}, "
             f"leading edge {float(row['leading_edge_end']):.3g} widths; 50% capsized {when['t_50']}, 90% {when['t_90']}"
         )
+    if (out / "fragments.csv") in written:
+        with open(out / "fragments.csv") as fh:
+            frags = list(csv.DictReader(fh))
+        for group in dict.fromkeys(row["group"] for row in frags):
+            mine = [row for row in frags if row["group"] == group]
+            fits = [
+                PowerLaw(float(row["tau"]), float(row["tau_error"]), int(row["pieces"]), 1, int(row["icebergs"])) for row in mine
+            ]
+            pieces = ", ".join(row["pieces"] for row in mine)
+            print(f"{group}: pieces of ice at t = {mine[0]['t']}: {pieces}; {exponent_text(fits)}, 2-D fragmentation 3/2")
     print(f"wrote {len(written)} files to {out}")
     return 0

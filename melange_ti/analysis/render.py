@@ -3,7 +3,9 @@
 Each iceberg is drawn as its rectangle coloured by the capsize angle ``phi`` in
 ``[0, pi/2]`` (docs/model.md; capsized from ``pi/4``), optionally with the collision discs
 (``--discs``), over the sea (the water line at ``physics.water_level``; with the ``waves``
-effect, the moving surface ``water_level + eta`` over the wave grid) and the wall.
+effect, the moving surface ``water_level + eta`` over the wave grid) and the wall. With the
+``bonds`` effect each bond intact at the frame's time is drawn as a cyan segment along the
+face it glues (:class:`BondFaces`); a broken one is not drawn.
 The movie is encoded by the ``ffmpeg`` binary shipped in the ``imageio-ffmpeg`` wheel.
 """
 
@@ -19,7 +21,7 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.collections import EllipseCollection, PolyCollection  # noqa: E402
+from matplotlib.collections import EllipseCollection, LineCollection, PolyCollection  # noqa: E402
 from matplotlib.colors import Normalize  # noqa: E402
 from matplotlib.patches import Polygon  # noqa: E402
 
@@ -36,6 +38,7 @@ PHI_NORM = Normalize(0.0, 0.5 * math.pi)
 WATER = "#cfe3f3"
 WATER_LINE = "#1f5f99"
 WALL = "0.35"
+BOND = "#19d3f3"  # cyan: apart from the capsize angle's colours
 ZOOM_SPAN = 60.0  # widths shown around the leading edge when the whole run is too wide
 WIDE = 80.0  # widths beyond which a frame gets a leading-edge zoom panel
 
@@ -71,6 +74,65 @@ def disc_centres(x, z, theta, width, thickness, discs: int) -> tuple[np.ndarray,
     return out, r
 
 
+class BondFaces:
+    """The bonds of a run (the ``bonds`` effect), each drawn as the face it glues: a segment
+    of the face's length ``LEN`` through the bond's point, across its normal, both carried
+    by iceberg A (``UA, VA, NU, NV`` of ``bonds/rest``), so it follows A's face as A moves;
+    a bond to the wall lies on the wall. Intact at time ``t``: ``break_time`` NaN or > t."""
+
+    def __init__(self, a, rest: dict[str, np.ndarray], break_time):
+        self.a = np.asarray(a).astype(np.int64)
+        self.u, self.v = rest["UA"], rest["VA"]
+        self.nu, self.nv = rest["NU"], rest["NV"]
+        self.half = 0.5 * rest["LEN"]
+        self.break_time = np.asarray(break_time, dtype=float)
+
+    def __len__(self) -> int:
+        return len(self.a)
+
+    @classmethod
+    def read(cls, path, run: dict) -> BondFaces | None:
+        """The bonds in ``run`` (:func:`read_run` data); None without the effect, or with no
+        bonds. One-line :class:`OutputError` for a bond table that cannot be drawn."""
+        from ..physics.effects.bonds import REST
+
+        b = run.get("bonds")
+        if not b or "rest" not in b or len(b["rest"]) == 0:
+            return None
+        rest = np.asarray(b["rest"], dtype=float)
+        n = len(run["icebergs"]["width"])
+        need = ("a", "break_time")
+        if any(k not in b for k in need) or rest.ndim != 2 or rest.shape[1] != len(REST):
+            raise OutputError(f"{path}: /bonds is not the bonds effect's table (columns {', '.join(REST)})")
+        a = np.asarray(b["a"])
+        if a.shape != (len(rest),) or np.any(~np.isfinite(a)) or np.any((a < 0) | (a >= n)):
+            raise OutputError(f"{path}: /bonds/a holds values that are not iceberg indices 0..{n - 1}")
+        if not np.all(np.isfinite(rest)):
+            raise OutputError(f"{path}: /bonds/rest holds non-finite values (a corrupted file): nothing drawn")
+        return cls(a, {name: rest[:, i] for i, name in enumerate(REST)}, b["break_time"])
+
+    def intact(self, t: float) -> np.ndarray:
+        return np.isnan(self.break_time) | (self.break_time > t)
+
+    def segments(self, x, z, theta, t: float, keep: np.ndarray | None = None) -> np.ndarray:
+        """World segments (n, 2, 2) of the bonds intact at ``t`` at the pose ``x, z, theta``
+        (all icebergs); ``keep``: an optional mask of icebergs, a bond drawn if its A is kept."""
+        on = self.intact(t)
+        if keep is not None:
+            on &= np.asarray(keep)[self.a]
+        a = self.a[on]
+        th = np.asarray(theta, dtype=float)[a]
+        c, s = np.cos(th), np.sin(th)
+        u, v, nu, nv, h = self.u[on], self.v[on], self.nu[on], self.nv[on], self.half[on]
+        px = np.asarray(x, dtype=float)[a] + u * c - v * s
+        pz = np.asarray(z, dtype=float)[a] + u * s + v * c
+        tx, tz = -(nu * s + nv * c), nu * c - nv * s  # the normal turned by A's tilt, then a quarter turn
+        out = np.empty((len(a), 2, 2))
+        out[:, 0, 0], out[:, 0, 1] = px - h * tx, pz - h * tz
+        out[:, 1, 0], out[:, 1, 1] = px + h * tx, pz + h * tz
+        return out
+
+
 # ---------------------------------------------------------------------------------------
 # Drawing
 
@@ -79,10 +141,21 @@ class IcebergArtist:
     """Rectangles (coloured by capsize angle) and optional disc outlines on one axes.
 
     Created once and updated per frame with :meth:`update`, so a movie does not rebuild its
-    artists.
+    artists. With ``bonds`` (:class:`BondFaces`), the bonds intact at the time given to
+    :meth:`update` are drawn too.
     """
 
-    def __init__(self, ax, width, thickness, discs: int | None = None, cmap: str = CMAP, edge_width: float = 0.6):
+    def __init__(
+        self,
+        ax,
+        width,
+        thickness,
+        discs: int | None = None,
+        cmap: str = CMAP,
+        edge_width: float = 0.6,
+        bonds: BondFaces | None = None,
+        bond_width: float = 1.8,
+    ):
         self.ax = ax
         self.width = np.asarray(width, dtype=float)
         self.thickness = np.asarray(thickness, dtype=float)
@@ -111,9 +184,17 @@ class IcebergArtist:
                 zorder=4,
             )
             ax.add_collection(self.circles)
+        self.bonds = bonds
+        self.bond_lines = None
+        if bonds is not None:
+            self.bond_lines = LineCollection([], colors=BOND, linewidths=bond_width, capstyle="butt", zorder=5.5)
+            ax.add_collection(self.bond_lines)
 
-    def update(self, x, z, theta) -> None:
+    def update(self, x, z, theta, t: float | None = None) -> None:
+        """Draw the icebergs at ``x, z, theta``, and (with bonds) the bonds intact at ``t``."""
         self.rects.set_verts(rect_corners(x, z, theta, self.width, self.thickness))
+        if self.bond_lines is not None:
+            self.bond_lines.set_segments(self.bonds.segments(x, z, theta, t))
         self.rects.set_array(diag.capsize_angle(np.asarray(theta, dtype=float)))
         if self.circles is not None:
             centres, _ = disc_centres(x, z, theta, self.width, self.thickness, self.discs)
@@ -202,6 +283,7 @@ def load_run(path: str | Path) -> tuple[dict, Scene]:
         if key not in run["icebergs"]:
             raise OutputError(f"{path}: not a melange_ti run file (no /icebergs/{key})")
     check_finite(path, run, DRAWN)
+    BondFaces.read(path, run)  # a bond table that cannot be drawn is refused before anything is written
     return run, scene
 
 
@@ -227,6 +309,7 @@ class FrameMaker:
         self.run = run
         self.scene = scene
         self.width_m = width_m
+        self.bonds = BondFaces.read("run", run)
         snaps = run["snapshots"]
         width = run["icebergs"]["width"]
         thickness = run["icebergs"]["thickness"]
@@ -277,7 +360,15 @@ class FrameMaker:
             ax.set_ylim(*self.zlim)
             ax.set_ylabel("z (widths)")
             overview = self.zoom and k == 0  # edges would hide the icebergs at that scale
-            art = IcebergArtist(ax, width, thickness, None if overview else ndisc, edge_width=0.0 if overview else 0.6)
+            art = IcebergArtist(
+                ax,
+                width,
+                thickness,
+                None if overview else ndisc,
+                edge_width=0.0 if overview else 0.6,
+                bonds=self.bonds,
+                bond_width=1.0 if overview else 1.8,
+            )
             self.artists.append(art)
         self.ax.set_xlim(*self.xlim)
         if self.zoom:
@@ -294,8 +385,9 @@ class FrameMaker:
     def draw(self, k: int) -> np.ndarray:
         snaps = self.run["snapshots"]
         x, z, theta = snaps["x"][k], snaps["z"][k], snaps["theta"][k]
+        t = float(snaps["time"][k])
         for art in self.artists:
-            art.update(x, z, theta)
+            art.update(x, z, theta, t)
         if self.seas:  # the run has waves: read_run cut eta to the snapshots' length
             _, eta = wave_surface(self.run, k)
             for sea in self.seas:
@@ -306,7 +398,10 @@ class FrameMaker:
             self.axz.set_ylim(*self.zlim)
             self.axz.set_title("leading edge", fontsize=9, loc="left")
         frac = diag.capsized_fraction(theta)
-        self.title.set_text(f"{_time_text(float(snaps['time'][k]), self.width_m)}    capsized {100 * frac:.0f}%")
+        text = f"{_time_text(t, self.width_m)}    capsized {100 * frac:.0f}%"
+        if self.bonds is not None:
+            text += f"    bonds intact (cyan) {int(self.bonds.intact(t).sum())} of {len(self.bonds)}"
+        self.title.set_text(text)
         self.fig.canvas.draw()
         if not self._laid_out:  # lay out once (first frame), then keep the axes still
             self.fig.set_layout_engine("none")

@@ -193,7 +193,9 @@ def ledger_term(name: str) -> str:
 
 # every energy ledger of the schema (diagnostics.ENERGY_LEDGERS) is a term of the budget
 LEDGER_TERMS = {ledger_term(name): name for name in ENERGY_LEDGERS}
-ENERGY_TERMS = ("released", "kinetic", "waves", *LEDGER_TERMS, "residual")
+# every energy an effect holds (diagnostics.HELD: wave_energy, bond_energy) is a term, its gain
+HELD_TERMS = {name.removesuffix("_energy") + "s": name for name in HELD}
+ENERGY_TERMS = ("released", "kinetic", *HELD_TERMS, *LEDGER_TERMS, "residual")
 
 
 def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -205,12 +207,13 @@ def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray
     - ``kinetic``: kinetic energy gained, ``E_k(t) - E_k(0)``;
     - one term per energy ledger (:data:`LEDGER_TERMS`: ``drag``, ``collision``,
       ``correction``, ...): cumulative energy removed by it (0 where an older file lacks it);
-    - ``waves``: wave energy gained, ``E_w(t) - E_w(0)`` (0 without the waves effect);
+    - one term per energy an effect holds (:data:`HELD_TERMS`): ``waves``, wave energy gained,
+      ``E_w(t) - E_w(0)``; ``bonds``, the bonds' elastic energy gained (0 without the effect);
     - ``residual``: ``E(0) - E(t) - sum(ledgers)``, the integrator's error;
-    - ``total_loss``: ``E(0) - E(t)`` with ``E = E_k + E_p + E_w``.
+    - ``total_loss``: ``E(0) - E(t)`` with ``E = E_k + E_p + E_w + E_b``.
 
     By construction ``sum(ledgers) + residual == total_loss`` and
-    ``released == kinetic + waves + sum(ledgers) + residual`` (up to rounding).
+    ``released == kinetic + waves + bonds + sum(ledgers) + residual`` (up to rounding).
     """
     pe = np.asarray(diagnostics["potential_energy"], dtype=float)
     ke = np.asarray(diagnostics["kinetic_energy"], dtype=float)
@@ -221,7 +224,10 @@ def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray
         term: np.asarray(diagnostics[name], dtype=float) if name in diagnostics else np.zeros_like(pe)
         for term, name in LEDGER_TERMS.items()
     }
-    we = np.asarray(diagnostics["wave_energy"], dtype=float) if "wave_energy" in diagnostics else np.zeros_like(pe)
+    held = {
+        term: np.asarray(diagnostics[name], dtype=float) if name in diagnostics else np.zeros_like(pe)
+        for term, name in HELD_TERMS.items()
+    }
     # E: the one sum (melange_ti.energy), of every energy part of it the file holds
     names = ("kinetic_energy", "potential_energy", *HELD)
     parts = {k: np.asarray(diagnostics[k], dtype=float) for k in names if k in diagnostics}
@@ -230,7 +236,7 @@ def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray
     return {
         "released": pe[0] - pe,
         "kinetic": ke - ke[0],
-        "waves": we - we[0],
+        **{term: e - e[0] for term, e in held.items()},
         **ledgers,
         "residual": total_loss - sum(ledgers.values()),
         "total_loss": total_loss,
@@ -286,10 +292,10 @@ def differing_keys(scenes: Sequence[Mapping[str, object]], ignore: Iterable[str]
 def default_parameters() -> dict[str, object]:
     """Every key's default (the bundled paper scene's values) as ``{"section.key": value}``,
     with the keys of every effect; ``scene.effects`` is the paper's effects."""
-    from ..physics.effects import PAPER_EFFECTS, REGISTRY
+    from ..physics.effects import PAPER_EFFECTS
     from ..scene import loads
 
-    every = loads("", [("scene.effects", [e.name for e in REGISTRY])], geometry=False)
+    every = loads("", geometry=False)  # [physics] holds every effect's keys, named or not
     return {**flatten_scene(every.source), "scene.effects": PAPER_EFFECTS}
 
 

@@ -34,6 +34,8 @@ from ..physics.data.schema import BODIES
 from ..physics.data.schema import STATE_NAMES as STATE
 from ..physics.effects import REGISTRY
 
+# 6: an effect's reports (diagnostics beyond energies), datasets over the icebergs, datasets
+# rewritten with every snapshot, and each effect's own dtype (docs/output.md);
 # 5: the energy an effect holds and its run-wide ledger (0 without it); the datasets and
 # dimensions an effect declares (docs/output.md);
 # 4: friction_dissipated (the friction effect's ledger, 0 without it), the taichi_arch attribute;
@@ -42,7 +44,7 @@ from ..physics.effects import REGISTRY
 # 2: self-describing as netCDF-4 (dimension scales, units and long_name on every variable,
 # global attributes); 1: plain HDF5 (still read). A diagnostic added later carries the next
 # version as its ``since``, and the figures read the older files without it.
-FORMAT_VERSION = 5
+FORMAT_VERSION = 6
 SCENE_ATTR = "scene_toml"  # root attribute: the resolved scene, as run (TOML text)
 COMPLETE_ATTR = "complete"  # root attribute: True once the run reached its end
 DIAGNOSTICS = tuple(f.name for f in FIELDS)
@@ -52,6 +54,8 @@ GROUPS = ("icebergs", "snapshots", "diagnostics")  # the model's own; an effect 
 # file of a run whose scene names the effect
 DATASETS = tuple(d for e in REGISTRY for d in e.datasets)
 DIMS = {name: doc for e in REGISTRY for name, doc in e.dims}
+# each dataset's effect's own dimensions: the effect is named when its State gives them all
+OWN_DIMS = {d.path: {name for name, _ in e.dims} for e in REGISTRY for d in e.datasets}
 TIME_UNITS = "sqrt(w/g)"
 REFERENCE = (
     "Guttenberg, N., Abbot, D. S., Amundson, J. M., Burton, J. C., Cathles, L. M., MacAyeal, D. R. and Zhang, W. W. "
@@ -126,6 +130,7 @@ class RunWriter:
         self._pending: list[dict] = []
         # Dataset handles looked up once: h5py's group lookup costs more than a small write.
         self._state = (*STATE, *(d.name for d in DATASETS if d.group == "snapshots" and d.name in self.f["snapshots"]))
+        self._updated = {d.name: self.f[d.path] for d in DATASETS if d.updated and d.path in self.f}
         self._snap = {k: self.f["snapshots"][k] for k in ("time", *self._state)}
         self._diag = {k: self.f["diagnostics"][k] for k in ("time", *DIAGNOSTICS)}
         self._nsnap = self._snap["time"].shape[0]
@@ -176,27 +181,34 @@ class RunWriter:
         # the effects' dimensions (at the root like iceberg, so netCDF readers see them from
         # every group) and the datasets they declare over them
         sizes = dict(own.get("dims", {}))
-        scales = {}
+        scales = {"iceberg": iceberg}
+        effect_dims = set(sizes)
+        sizes["iceberg"] = n
         for name, size in sizes.items():
-            if size <= 0:
+            if size <= 0 or name == "iceberg":
                 continue
             scales[name] = f.create_dataset(name, data=np.arange(size, dtype=np.int64))
             scales[name].attrs.update({"units": "1", "long_name": DIMS[name]})
             scales[name].make_scale(name)
         for d in DATASETS:
-            if not all(sizes.get(dim, 0) > 0 for dim in d.dims):
-                continue  # an effect the scene does not name (or a dimension of no length)
+            if not OWN_DIMS[d.path] <= effect_dims or not all(sizes.get(dim, 0) > 0 for dim in d.dims):
+                continue  # an effect the scene does not name (its State gave no dims), or a dimension of no length
             shape = tuple(sizes[dim] for dim in d.dims)
+            dtype = np.dtype(d.dtype) if d.dtype else self.dtype
             if d.group == "snapshots":
                 rows_d = max(1, min(64, 65536 // max(1, int(np.prod(shape)))))
-                ds = s.create_dataset(
-                    d.name, shape=(0, *shape), maxshape=(None, *shape), dtype=self.dtype, chunks=(rows_d, *shape)
-                )
+                ds = s.create_dataset(d.name, shape=(0, *shape), maxshape=(None, *shape), dtype=dtype, chunks=(rows_d, *shape))
                 ds.dims[0].attach_scale(st)
                 first = 1
+            elif d.updated:
+                group = f[d.group] if d.group in f else f.create_group(d.group)
+                ds = group.create_dataset(d.name, data=np.full(shape, np.nan, dtype=dtype))
+                first = 0
             else:
                 group = f[d.group] if d.group in f else f.create_group(d.group)
-                ds = group.create_dataset(d.name, data=np.asarray(own["constants"][d.path], dtype=np.float64))
+                ds = group.create_dataset(
+                    d.name, data=np.asarray(own["constants"][d.path], dtype=dtype if d.dtype else np.float64)
+                )
                 first = 0
             for k, dim in enumerate(d.dims):
                 ds.dims[first + k].attach_scale(scales[dim])
@@ -268,6 +280,8 @@ class RunWriter:
                     ds = self._snap[name]
                     ds.resize(self._nsnap + 1, axis=0)
                     ds[self._nsnap] = snap[1][name]
+                for name, ds in self._updated.items():
+                    ds[...] = snap[1][name]
             k = self._ndiag
             if m:
                 for name in DIAGNOSTICS:

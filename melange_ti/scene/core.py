@@ -50,7 +50,6 @@ Shelf = _section_class("Shelf", K.SHELF)
 Start = _section_class("Start", K.START)
 CLASSES: dict[str, type] = {"physics": Physics, "contacts": Contacts, "time": Time, "output": Output, "shelf": Shelf}
 ICEBERG_DEFAULTS = {k.name: k.default for k in K.ICEBERG}
-RULES = {f"{s}.{k.name}": k for s, ks in K.SECTIONS.items() for k in ks if k.rule is not None}
 INTERVALS = ("output.snapshot_interval", "output.diagnostic_interval", "output.checkpoint_interval")
 
 
@@ -70,6 +69,7 @@ class Scene:
     iceberg_table: tuple[dict, ...] | None = None
     start: Start | None = None
     width_m: float = 70.0
+    tables: tuple[tuple[str, tuple[dict, ...]], ...] = ()  # effects' arrays of tables ([[NAME]]), with [[iceberg]]
 
     def icebergs(self) -> Icebergs:
         """The initial state: from ``[shelf]``, ``[[iceberg]]`` or ``[start]``."""
@@ -93,6 +93,8 @@ class Scene:
             doc["start"] = dataclasses.asdict(self.start)
         else:
             doc["iceberg"] = [{**ICEBERG_DEFAULTS, **b} for b in self.iceberg_table]
+        for name, entries in self.tables:
+            doc[name] = [dict(t) for t in entries]
         return doc
 
     def to_toml(self) -> str:
@@ -162,25 +164,27 @@ def _check_type(key: str, value: Any, default: Any) -> Any:
     raise AssertionError(key)
 
 
-def _check_rule(rule_key: str, key: str, value: Any) -> None:
-    k = RULES.get(rule_key)
-    if k is not None and not k.rule(value):
-        raise error(key, value, k.accepts)
+def _checked(prefix: str, raw: dict, keys: tuple[Key, ...]) -> dict:
+    """The values of one table ``raw`` whose keys are ``keys``, each of the right type and
+    passing its rule (named ``prefix.key`` in a refusal)."""
+    by_name = {k.name: k for k in keys}
+    values = {}
+    for key, value in raw.items():
+        full = f"{prefix}.{key}"
+        if key not in by_name:
+            raise error(full, value, f"unknown key (known: {', '.join(by_name)})")
+        values[key] = _check_type(full, value, by_name[key].default)
+        rule = by_name[key]
+        if rule.rule is not None and not rule.rule(values[key]):
+            raise error(full, values[key], rule.accepts)
+    return values
 
 
 def _table(doc: dict, name: str, keys: tuple[Key, ...]) -> dict:
     raw = doc.get(name, {})
     if not isinstance(raw, dict):
         raise error(name, raw, "must be a table")
-    defaults = {k.name: k.default for k in keys}
-    values = {}
-    for key, value in raw.items():
-        full = f"{name}.{key}"
-        if key not in defaults:
-            raise error(full, value, f"unknown key (known: {', '.join(defaults)})")
-        values[key] = _check_type(full, value, defaults[key])
-        _check_rule(full, full, values[key])
-    return values
+    return _checked(name, raw, keys)
 
 
 def _scene_table(doc: dict) -> dict:
@@ -219,14 +223,34 @@ def _iceberg_table(doc: dict) -> tuple[dict, ...] | None:
     for k, berg in enumerate(raw):
         if not isinstance(berg, dict):
             raise error(f"iceberg[{k}]", berg, "must be a table")
-        clean = {}
-        for key, value in berg.items():
-            full = f"iceberg[{k}].{key}"
-            if key not in ICEBERG_DEFAULTS:
-                raise error(full, value, f"unknown key (known: {', '.join(ICEBERG_DEFAULTS)})")
-            clean[key] = _check_type(full, value, ICEBERG_DEFAULTS[key])
-            _check_rule(f"iceberg.{key}", full, clean[key])
-        out.append(clean)
+        out.append(_checked(f"iceberg[{k}]", berg, K.ICEBERG))
+    return tuple(out)
+
+
+# the arrays of tables effects read from a scene (Effect.tables): name -> keys
+EFFECT_TABLES = {name: keys for e in EFFECT_DECLS.values() for name, keys, _ in e.tables}
+
+
+def _effect_tables(doc: dict, icebergs: bool) -> tuple[tuple[str, tuple[dict, ...]], ...]:
+    """The effects' ``[[NAME]]`` entries, each key checked; they index ``[[iceberg]]`` tables."""
+    out = []
+    for name, keys in EFFECT_TABLES.items():
+        raw = doc.get(name)
+        if raw is None:
+            continue
+        if not isinstance(raw, list) or not all(isinstance(t, dict) for t in raw):
+            raise error(name, raw, f"must be an array of tables ([[{name}]])")
+        if not icebergs:
+            raise error(name, raw, f"[[{name}]] tables index [[iceberg]] tables; give the icebergs as [[iceberg]] tables")
+        entries = []
+        for k, t in enumerate(raw):
+            clean = _checked(f"{name}[{k}]", t, keys)
+            missing = [q.name for q in keys if q.name not in clean]
+            if missing:
+                names = " and ".join(q.name for q in keys)
+                raise error(f"{name}[{k}]", t, f"missing {', '.join(missing)} (give {names})")
+            entries.append(clean)
+        out.append((name, tuple(entries)))
     return tuple(out)
 
 
@@ -339,9 +363,10 @@ def from_dict(
     for key, value in overrides or []:
         _set_path(doc, key, value)
     for key in doc:
-        if key not in K.SECTIONS:
+        if key not in K.SECTIONS and key not in EFFECT_TABLES:
             known = ", ".join(f"[{s}]" for s in K.SECTIONS if s != "iceberg")
-            raise SceneError(f"[{one_line(str(key))}]: unknown section (known: {known}, [[iceberg]])")
+            arrays = ", ".join(f"[[{s}]]" for s in ("iceberg", *EFFECT_TABLES))
+            raise SceneError(f"[{one_line(str(key))}]: unknown section (known: {known}, {arrays})")
     head = _scene_table(doc)
     parts = {key: cls(**_table(doc, key, getattr(K, key.upper()))) for key, cls in CLASSES.items()}
     table = _iceberg_table(doc)
@@ -361,6 +386,7 @@ def from_dict(
         shelf=shelf,
         iceberg_table=table,
         start=start,
+        tables=_effect_tables(doc, table is not None),
     )
     # the time step's stability first: a dt far too large is not blamed on an interval
     icebergs = check_time_step(scene) if geometry else None
@@ -373,6 +399,10 @@ def from_dict(
             raise error(*bad)
     if geometry:
         check_geometry(scene, icebergs)
+        for effect in scene.effects.named:  # the checks an effect needs the initial state for
+            bad = effect.check_start(scene, icebergs) if effect.check_start is not None else None
+            if bad is not None:
+                raise error(*bad)
     return scene
 
 

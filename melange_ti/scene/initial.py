@@ -72,6 +72,14 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
             )
     width = np.full(n, shelf.width)
     x = physics.wall_x + shelf.gap + 0.5 * shelf.width + np.arange(n) * (shelf.width + shelf.gap)
+    if shelf.bonded:
+        # an intact shelf: no gaps (none at the wall either when bonded to it), upright; the
+        # seaward ``front`` icebergs free, ``gap`` apart, with their tilts
+        last = max(0, n - shelf.front)
+        start = physics.wall_x + (0.0 if shelf.bonded_wall else shelf.gap)
+        steps = np.where(np.arange(n) < last, 0.0, shelf.gap)
+        x = start + 0.5 * shelf.width + np.arange(n) * shelf.width + np.cumsum(steps)
+        theta = np.where(np.arange(n) < last, 0.0, theta)
     z = equilibrium_z(thickness, physics.density_ratio, physics.water_level)
     zeros = np.zeros(n)
     return Icebergs(x=x, z=z, theta=theta, vx=zeros, vz=zeros.copy(), omega=zeros.copy(), width=width, thickness=thickness)

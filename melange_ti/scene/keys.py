@@ -160,6 +160,31 @@ SHELF = (
         "must be in [0, pi]",
     ),
     Key.nonnegative("thickness_std", 0.0, "w", "standard deviation of a normal spread of thicknesses (0: all equal)"),
+    Key(
+        "bonded",
+        False,
+        "",
+        "an intact shelf: the row starts with no gaps, upright, every neighbour bonded (with the bonds effect; "
+        "docs/bonds.md); the seaward `front` icebergs are free, with `gap` and `tilt`",
+        None,
+        "must be true or false",
+    ),
+    Key(
+        "bonded_wall",
+        False,
+        "",
+        "with bonded: the landward iceberg starts at the wall and is bonded to it (the grounding line)",
+        None,
+        "must be true or false",
+    ),
+    Key(
+        "front",
+        1,
+        "1",
+        "with bonded: icebergs at the seaward end that start free (pre-cut, the first calved), tilted by `tilt`",
+        lambda v: v >= 0,
+        "must be >= 0",
+    ),
 )
 
 START = (

@@ -145,6 +145,8 @@ def test_derived_lists():
         "correction_work",
         "friction_dissipated",
         "wave_absorbed",
+        "bond_damping_dissipated",
+        "fracture_released",
     }
     from melange_ti import diagnostics
 

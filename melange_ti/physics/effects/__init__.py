@@ -15,7 +15,7 @@ The order is the order in which forces are summed, and so part of the results' b
 
 from dataclasses import make_dataclass
 
-from . import added_mass, buoyancy, collisions, drag, form_drag, friction, gravity, wall, waves
+from . import added_mass, bonds, buoyancy, collisions, drag, form_drag, friction, gravity, wall, waves
 from .base import Dataset, Effect, Key, Quantity, State
 
 REGISTRY: tuple[Effect, ...] = (
@@ -28,6 +28,7 @@ REGISTRY: tuple[Effect, ...] = (
     wall.EFFECT,
     friction.EFFECT,
     waves.EFFECT,
+    bonds.EFFECT,
 )
 NAMES: tuple[str, ...] = tuple(e.name for e in REGISTRY)
 PAPER_EFFECTS: tuple[str, ...] = tuple(e.name for e in REGISTRY if not e.beyond_paper)  # a scene's default
@@ -38,6 +39,8 @@ ADDED = tuple(e for e in REGISTRY if "added_inertia" in e.terms)
 POST_DRIFT = tuple(e for e in REGISTRY if "post_drift" in e.terms)
 POTENTIALS = tuple(e for e in REGISTRY if "potential" in e.terms)
 IMPULSE_LAW = tuple(e for e in REGISTRY if "impulse" in e.terms)  # effects that replace the contact law's impulse
+JOINED = tuple(e for e in REGISTRY if "joined" in e.terms)  # effects that hold a pair's contact (bonds)
+JOINED_WALL = tuple(e for e in REGISTRY if "joined_wall" in e.terms)
 OWNERS = tuple(e for e in REGISTRY if e.table is not None)  # effects that own a table (``a.own``)
 
 
@@ -89,6 +92,8 @@ __all__ = [
     "POST_DRIFT",
     "POTENTIALS",
     "OWNERS",
+    "JOINED",
+    "JOINED_WALL",
     "IMPULSE_LAW",
     "Dataset",
     "Quantity",

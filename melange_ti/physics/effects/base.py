@@ -62,8 +62,10 @@ class Quantity:
 class Dataset:
     """A variable an effect writes to the run file: ``path`` in the file (``snapshots/eta``:
     one row per snapshot, after ``time``; another group's, e.g. ``waves/x``: written once
-    when the file is made), its dimensions after ``time`` (``("wave_cell",)``; a dimension an
-    effect declares is a variable at the file's root with its index, as ``iceberg``), units
+    when the file is made, or, ``updated``, rewritten with every snapshot: the state of the
+    last one), its dimensions after ``time`` (``("wave_cell",)``: dimensions its effect
+    declares, or ``iceberg``; a dimension an effect declares is a variable at the file's
+    root with its index, as ``iceberg``), ``dtype`` (``""``: the run's precision), units
     and meaning; ``coordinate``: the name under which :func:`melange_ti.open_run` attaches it
     to every group with its dimension (``wave_x``), or ``""``."""
 
@@ -72,6 +74,8 @@ class Dataset:
     units: str
     doc: str
     coordinate: str = ""
+    updated: bool = False  # in a group other than snapshots: rewritten with every snapshot (not written once)
+    dtype: str = ""  # numpy dtype in the file ("": the run's precision)
 
     @property
     def group(self) -> str:
@@ -107,6 +111,9 @@ class Effect:
                                                added inertia
     ``post_drift(a, i)``                       after the position update
     ``potential(a, i) -> U``                   its potential energy of iceberg i
+    ``joined(a, i, j) -> ti.i32``              1 if the pair (i, j) has no contact (the effect
+                                               holds it: an intact bond); ``joined_wall(a, i)``
+                                               the same for the wall
     ``impulse(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, K_nn, m1, I1, c1n, m2, I2, c2n, kick_vn)
        -> (J_n, ti.Vector(ledger terms))``     the contact law's impulse (at most one named
                                                effect has it; without, the frictionless law
@@ -134,6 +141,13 @@ class Effect:
     ``dims``         the file dimensions it declares, ``{name: meaning}``
     ``check``        ``check(physics, dt) -> (key, value, accepts) | None``: the scene checks
                      its keys need beyond each key's own (called when a scene names it)
+    ``check_start``  ``check_start(scene, icebergs) -> (key, value, accepts) | None``: the
+                     checks that need the initial state (called with the geometry's)
+    ``tables``       the arrays of tables it reads from a scene, ``((name, keys, doc), ...)``:
+                     ``[[name]]`` entries, each key checked as a scene key's
+                     (``Scene.tables``); accepted whether or not the scene names it
+    ``reports``      diagnostics it gives beyond energies (:class:`Quantity`; its sample
+                     gives each, 0 in a run without it)
     ``requires``     effects of which the scene must name at least one with it, and
     ``requires_doc`` why (the refusal's words)
     ``state``        ``state(scene, np_real) -> State``: its host side (:class:`State`),
@@ -165,6 +179,9 @@ class Effect:
     datasets: tuple[Dataset, ...] = ()
     dims: tuple[tuple[str, str], ...] = ()
     check: Callable | None = None
+    check_start: Callable | None = None
+    tables: tuple[tuple[str, tuple[Key, ...], str], ...] = ()
+    reports: tuple[Quantity, ...] = ()
     requires: tuple[str, ...] = ()
     requires_doc: str = ""
     state: Callable | None = None
@@ -179,8 +196,10 @@ class Effect:
         if self.law_ledgers and "impulse" not in self.terms:
             raise ValueError(f"effect {self.name}: law_ledgers are booked from its impulse term, which it lacks")
         own_dims = {name for name, _ in self.dims}
-        for d in self.datasets:  # over its own dimensions only: the writer makes them from its State
-            if not d.dims or not set(d.dims) <= own_dims:
+        # over its own dimensions, and the icebergs': the writer knows the effect is named from
+        # its State's dimensions, so an effect that writes any dataset declares one
+        for d in self.datasets:
+            if not d.dims or not own_dims or not set(d.dims) <= own_dims | {"iceberg"}:
                 raise ValueError(f"effect {self.name}: dataset {d.path} must lie over dimensions it declares {sorted(own_dims)}")
 
     def on(self, fx) -> bool:
@@ -204,9 +223,11 @@ class Effect:
     post_drift = property(lambda self: self.term("post_drift"))
     potential = property(lambda self: self.term("potential"))
     impulse = property(lambda self: self.term("impulse"))
+    joined = property(lambda self: self.term("joined"))
+    joined_wall = property(lambda self: self.term("joined_wall"))
 
 
-TERMS = ("force", "added_inertia", "damp", "post_drift", "potential", "impulse")
+TERMS = ("force", "added_inertia", "damp", "post_drift", "potential", "impulse", "joined", "joined_wall")
 
 
 class State:
@@ -241,8 +262,13 @@ class State:
         """Its datasets written once (``{path: array}``)."""
         return {}
 
-    def sample(self, rows_) -> dict[str, Any]:
-        """Its snapshot datasets (by name) and held energies at an output event."""
+    def bodies(self, rows) -> None:
+        """Fill its per-iceberg columns in ``rows`` (the bodies' table at t = 0, numpy)."""
+
+    def sample(self, rows_, bodies) -> dict[str, Any]:
+        """Its snapshot and updated datasets (by name), held energies and reports at an
+        output event, from its table's rows and ``bodies``: the icebergs' sample of the
+        same instant (``x``, ``z``, ``theta``, ...)."""
         return {}
 
     def refresh(self) -> None:

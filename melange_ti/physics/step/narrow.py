@@ -22,6 +22,7 @@ entry a new partner takes (round robin).
 import taichi as ti
 
 from ..data.schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Param
+from ..effects import JOINED, JOINED_WALL
 from ..numerics import FAR, TINY
 from ..shape.discs import face_line, line_window
 from . import wall
@@ -391,9 +392,33 @@ def detect(fx: ti.template(), a: ti.template(), i, size):
                     dz = zi - b[j, Body.Z]
                     lim = b[i, Body.BOUND] + b[j, Body.BOUND] + rch
                     if dx * dx + dz * dz < lim * lim:
-                        narrow(a, i, j, rch, b[i, Body.MOTION] + b[j, Body.MOTION])
+                        if not held(fx, a, i, j):
+                            narrow(a, i, j, rch, b[i, Body.MOTION] + b[j, Body.MOTION])
     if ti.static(fx.wall):
-        wall.detect(a, i)
+        if not held_wall(fx, a, i):
+            wall.detect(a, i)
+        else:
+            a.bi[i, BodyInt.WALL_ON] = 0
+
+
+@ti.func
+def held(fx: ti.template(), a: ti.template(), i, j) -> ti.i32:
+    """1 if a named effect holds the pair's contact (``Effect.joined``: an intact bond)."""
+    out = 0
+    for e in ti.static(JOINED):
+        if ti.static(e.on(fx)):
+            out = out | e.joined(a, i, j)
+    return out
+
+
+@ti.func
+def held_wall(fx: ti.template(), a: ti.template(), i) -> ti.i32:
+    """1 if a named effect holds body i's wall contact."""
+    out = 0
+    for e in ti.static(JOINED_WALL):
+        if ti.static(e.on(fx)):
+            out = out | e.joined_wall(a, i)
+    return out
 
 
 @ti.func

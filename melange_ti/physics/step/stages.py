@@ -147,11 +147,17 @@ CORRECTION = Stage(
 
 def _with_effects(base: tuple) -> tuple:
     """``base`` with every effect's own stages (``Effect.stages``: ``(anchor, Stage)``) after
-    the stage they name, in the registry's order; each runs only when the scene names its
+    the stage they name (``"start"``: before the first), in the registry's order; each runs only when the scene names its
     effect."""
     step = list(base)
     for effect in REGISTRY:
         for anchor, stage in effect.stages:
+            if anchor == "start":  # before the step's first stage
+                at = -1
+                while at + 1 < len(step) and getattr(step[at + 1], "owner", None) is not None:
+                    at += 1
+                step.insert(at + 1, stage_of(effect, stage))
+                continue
             at = next(k for k, part in enumerate(step) if getattr(part, "name", None) == anchor)
             while at + 1 < len(step) and getattr(step[at + 1], "owner", None) is not None:
                 at += 1  # after the stages other effects put there before

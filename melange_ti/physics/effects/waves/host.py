@@ -75,7 +75,7 @@ class WaveGrid(State):
         w = {k: v.astype(np.float64) for k, v in (surface or self.surface()).items()}
         return float(0.5 * self.dx * (np.dot(w["eta"], w["eta"]) + np.dot(w["phi"], w["g_phi"])))
 
-    def sample(self, rows: np.ndarray) -> dict:
+    def sample(self, rows: np.ndarray, bodies: dict) -> dict:
         w = self.surface(rows)
         return {"eta": w["eta"], "wave_energy": np.array(self.energy(w))}
 

@@ -1,0 +1,449 @@
+"""The bonds' host side (numpy, no Taichi): which icebergs are bonded and where, the bond
+table at t = 0, the time step's limit, and what an output event reads from the table (the
+bonds' energy, the fragments). Made by the model of a scene that names the bonds
+(:class:`~..base.State`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..base import State
+from . import GEOMETRY, MAX_BONDS, MIN_OVERLAP, POISSON, REST, TABLE, TOUCH, Bond, weibull_scale
+
+# ---------------------------------------------------------------- geometry at t = 0
+
+
+def _faces(bergs, idx: np.ndarray):
+    """The four faces of icebergs ``idx``: centres, outward normals, tangents ``(P, 4, 2)`` and
+    half lengths ``(P, 4)``, in the order +u, -u, +v, -v."""
+    th = np.asarray(bergs.theta, dtype=np.float64)[idx]
+    c, s = np.cos(th), np.sin(th)
+    u = np.stack([c, s], -1)
+    v = np.stack([-s, c], -1)
+    ctr = np.stack([np.asarray(bergs.x, dtype=np.float64)[idx], np.asarray(bergs.z, dtype=np.float64)[idx]], -1)
+    hw = 0.5 * np.asarray(bergs.width, dtype=np.float64)[idx]
+    hh = 0.5 * np.asarray(bergs.thickness, dtype=np.float64)[idx]
+    centre = np.stack([ctr + hw[:, None] * u, ctr - hw[:, None] * u, ctr + hh[:, None] * v, ctr - hh[:, None] * v], 1)
+    normal = np.stack([u, -u, v, -v], 1)
+    tangent = np.stack([v, v, u, u], 1)
+    half = np.stack([hh, hh, hw, hw], 1)
+    return centre, normal, tangent, half
+
+
+def shared_faces(bergs, i: np.ndarray, j: np.ndarray):
+    """``(point (P, 2), normal from i to j (P, 2), length (P,), found (P,))`` of the face each
+    pair of icebergs ``i[k], j[k]`` shares at t = 0: antiparallel faces at most :data:`TOUCH`
+    apart that overlap by more than :data:`MIN_OVERLAP` (the longest overlap if several); the
+    point is the overlap's middle, halfway between the two faces."""
+    i, j = np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64)
+    ci, ni, ti, hi = (q[:, :, None] for q in _faces(bergs, i))
+    cj, nj, _tj, hj = (q[:, None, :] for q in _faces(bergs, j))
+    gap = cj - ci
+    anti = np.sum(ni * nj, -1) < -1.0 + 1e-6
+    sep = np.sum(gap * ni, -1)
+    off = np.sum(gap * ti, -1)
+    lo = np.maximum(-hi, off - hj)
+    up = np.minimum(hi, off + hj)
+    ok = anti & (np.abs(sep) <= TOUCH) & (up - lo > MIN_OVERLAP)
+    score = np.where(ok, up - lo, -np.inf).reshape(len(i), 16)
+    best = np.argmax(score, 1)  # the first of the longest, faces of i outer
+    k = np.arange(len(i))
+    fi, fj = best // 4, best % 4
+    mid = 0.5 * (lo[k, fi, fj] + up[k, fi, fj])
+    sep_k = sep[k, fi, fj]
+    n = ni[k, fi, 0]
+    point = ci[k, fi, 0] + mid[:, None] * ti[k, fi, 0] + 0.5 * sep_k[:, None] * n
+    return point, n, (up - lo)[k, fi, fj], np.isfinite(score[k, best])
+
+
+def shared_face(bergs, i: int, j: int):
+    """``(point, normal from i to j, length)`` of the face icebergs i and j share at t = 0
+    (:func:`shared_faces`), or ``None``."""
+    point, n, length, found = shared_faces(bergs, np.array([i]), np.array([j]))
+    return (point[0], n[0], float(length[0])) if found[0] else None
+
+
+def wall_faces(bergs, i: np.ndarray, wall_x: float):
+    """``(point on the wall, normal from the iceberg to the wall, length, found)`` of the face of
+    each iceberg ``i`` that lies on the wall at t = 0."""
+    centre, normal, _t, half = _faces(bergs, np.asarray(i, dtype=np.int64))
+    ok = (normal[..., 0] < -1.0 + 1e-6) & (np.abs(centre[..., 0] - wall_x) <= TOUCH)
+    f = np.argmax(ok, 1)
+    k = np.arange(len(f))
+    point = np.stack([np.full(len(f), wall_x), centre[k, f, 1]], -1)
+    return point, normal[k, f], 2.0 * half[k, f], ok[k, f]
+
+
+def pairs(scene, bergs) -> tuple[list[tuple[int, int]], tuple[str, object, str] | None]:
+    """The bonded pairs ``(a, b)`` of the scene (``b = -1``: the wall), or the refusal
+    ``(key, value, accepts)`` of a ``[[bond]]`` table that cannot bond."""
+    sh = scene.shelf
+    if sh is not None:
+        if not sh.bonded:
+            return [], None
+        n = bergs.count
+        last = n - sh.front  # icebergs [0, last) are the bonded shelf
+        out = [(-2, 0)] if sh.bonded_wall and last > 0 else []
+        out += [(i, i + 1) for i in range(max(0, last - 1))]
+        return [(0, -1) if p == (-2, 0) else p for p in out], None
+    tables = dict(scene.tables).get("bond", ())
+    out = []
+    seen = set()
+    for k, t in enumerate(tables):
+        a, b = int(t["a"]), int(t["b"])
+        for key, v in (("a", a), ("b", b)):
+            if v >= bergs.count:
+                return [], (f"bond[{k}].{key}", v, f"must be an [[iceberg]] index below {bergs.count}")
+        if a == b:
+            return [], (f"bond[{k}].b", b, "must differ from bond.a (an iceberg is not bonded to itself)")
+        p = (min(a, b), max(a, b))
+        if p in seen:
+            return [], (f"bond[{k}].b", b, f"icebergs {p[0]} and {p[1]} are bonded already by an earlier [[bond]]")
+        seen.add(p)
+        if shared_face(bergs, *p) is None:
+            return [], (
+                f"bond[{k}].b",
+                b,
+                f"icebergs {p[0]} and {p[1]} share no face at t = 0 (bonded faces must face each other within "
+                f"{TOUCH:g} w and overlap)",
+            )
+        out.append(p)
+    return out, None
+
+
+def build(scene, bergs, pair_list) -> np.ndarray:
+    """The bond table's rows at t = 0 (f64) for ``pair_list``: the geometry, then the material."""
+    return material(scene, bergs, geometry(scene.physics.wall_x, bergs, pair_list))
+
+
+def geometry(wall_x: float, bergs, pair_list) -> np.ndarray:
+    """Rows with each bond's pair and rest geometry (``GEOMETRY`` columns), intact."""
+    rows = np.zeros((max(1, len(pair_list)), TABLE.size))
+    rows[:, Bond.A] = -1.0
+    rows[:, Bond.B] = -1.0
+    if not pair_list:
+        return rows
+    pr = np.asarray(pair_list, dtype=np.int64)
+    i, j = pr[:, 0], pr[:, 1]
+    wall = j < 0
+    jj = np.where(wall, 0, j)
+    point, normal, length, _ = shared_faces(bergs, i, jj)
+    if wall.any():
+        wp, wn, wl, _ = wall_faces(bergs, i[wall], wall_x)
+        point[wall], normal[wall], length[wall] = wp, wn, wl
+    x = np.stack([np.asarray(bergs.x, dtype=np.float64), np.asarray(bergs.z, dtype=np.float64)], -1)
+    th = np.asarray(bergs.theta, dtype=np.float64)
+    xi = x[i]
+    span = np.where(wall, np.abs(np.sum((point - xi) * normal, -1)), np.abs(np.sum((x[jj] - xi) * normal, -1)))
+
+    def body_frame(vec, angle):
+        c, s = np.cos(angle), np.sin(angle)
+        return c * vec[:, 0] + s * vec[:, 1], -s * vec[:, 0] + c * vec[:, 1]
+
+    n = len(pair_list)
+    rows[:n, Bond.A] = i
+    rows[:n, Bond.B] = j
+    rows[:n, Bond.UA], rows[:n, Bond.VA] = body_frame(point - xi, th[i])
+    ub, vb = body_frame(point - x[jj], th[jj])
+    rows[:n, Bond.UB] = np.where(wall, point[:, 0], ub)
+    rows[:n, Bond.VB] = np.where(wall, point[:, 1], vb)
+    rows[:n, Bond.NU], rows[:n, Bond.NV] = body_frame(normal, th[i])
+    rows[:n, Bond.DTH] = np.where(wall, -th[i], th[jj] - th[i])
+    rows[:n, Bond.LEN] = length
+    rows[:n, Bond.SPAN] = span
+    rows[:n, Bond.INTACT] = 1.0
+    return rows
+
+
+def material(scene, bergs, rows: np.ndarray) -> np.ndarray:
+    """``rows`` with each bond's stiffness, dashpot and strength from the scene's keys (the
+    Weibull spread drawn from ``time.seed``'s own stream, in bond order)."""
+    p = scene.physics
+    on = rows[:, Bond.A] >= 0
+    i = rows[on, Bond.A].astype(np.int64)
+    j = rows[on, Bond.B].astype(np.int64)
+    wall = j < 0
+    jj = np.where(wall, 0, j)
+    mass = p.density_ratio * bergs.width * bergs.thickness
+    inertia = mass * (bergs.width**2 + bergs.thickness**2) / 12.0
+    m_eff = np.where(wall, mass[i], mass[i] * mass[jj] / (mass[i] + mass[jj]))
+    i_eff = np.where(wall, inertia[i], inertia[i] * inertia[jj] / (inertia[i] + inertia[jj]))
+    e = p.bond_modulus
+    g = e / (2.0 * (1.0 + POISSON))
+    length, span = rows[on, Bond.LEN], rows[on, Bond.SPAN]
+    kn, ks, kb = e * length / span, g * length / span, e * length**3 / (12.0 * span)
+    strength = np.ones(int(on.sum()))
+    if p.strength_modulus > 0 and strength.size:
+        rng = np.random.default_rng((scene.time.seed, 31))  # its own stream: the tilts keep theirs
+        strength = weibull_scale(p.strength_modulus) * rng.weibull(p.strength_modulus, strength.size)
+    zeta = p.bond_damping
+    out = rows.copy()
+    out[on, Bond.KN], out[on, Bond.KS], out[on, Bond.KB] = kn, ks, kb
+    out[on, Bond.CN] = 2.0 * zeta * np.sqrt(kn * m_eff)
+    out[on, Bond.CS] = 2.0 * zeta * np.sqrt(ks * m_eff)
+    out[on, Bond.CB] = 2.0 * zeta * np.sqrt(kb * i_eff)
+    out[on, Bond.ST] = p.tensile_strength * strength
+    out[on, Bond.SS] = p.shear_strength * strength
+    return out
+
+
+def slots(n: int, table: np.ndarray) -> tuple[np.ndarray, int | None]:
+    """Each iceberg's bond rows plus 1 (``(n, MAX_BONDS)``, 0: none; in bond order), and an
+    iceberg with more than :data:`MAX_BONDS` bonds, if any."""
+    rows = np.flatnonzero(table[:, Bond.A] >= 0)
+    ends = np.concatenate([table[rows, Bond.A], table[rows, Bond.B]]).astype(np.int64)
+    bond = np.concatenate([rows, rows])
+    keep = ends >= 0
+    ends, bond = ends[keep], bond[keep]
+    order = np.lexsort((bond, ends))
+    ends, bond = ends[order], bond[order]
+    first = np.searchsorted(ends, ends, side="left")
+    rank = np.arange(ends.size) - first
+    out = np.zeros((n, MAX_BONDS))
+    crowded = rank >= MAX_BONDS
+    if crowded.any():
+        return out, int(ends[np.argmax(crowded)])
+    out[ends, rank] = bond + 1
+    return out, None
+
+
+def omega_max(table: np.ndarray, bergs, density_ratio: float) -> float:
+    """Gershgorin's bound on the bond network's highest angular frequency at t = 0: the
+    largest row sum of ``|M^-1/2 K M^-1/2|``, ``K`` the bonds' stiffness (the linearised
+    springs ``k_n, k_s, k_b`` on the relative motion of each bond's two points), ``M`` the
+    icebergs' masses and moments of inertia."""
+    on = (table[:, Bond.A] >= 0) & (table[:, Bond.INTACT] > 0.5)
+    if not on.any():
+        return 0.0
+    t = table[on]
+    mass = density_ratio * np.asarray(bergs.width) * np.asarray(bergs.thickness)
+    inertia = mass * (np.asarray(bergs.width) ** 2 + np.asarray(bergs.thickness) ** 2) / 12.0
+    diag = np.stack([mass, mass, inertia], 1).reshape(-1)
+    th = np.asarray(bergs.theta, dtype=np.float64)
+    i = t[:, Bond.A].astype(np.int64)
+    j = t[:, Bond.B].astype(np.int64)
+    wall = j < 0
+    jj = np.where(wall, 0, j)
+    ca, sa, cb, sb = np.cos(th[i]), np.sin(th[i]), np.cos(th[jj]), np.sin(th[jj])
+    n = np.stack([ca * t[:, Bond.NU] - sa * t[:, Bond.NV], sa * t[:, Bond.NU] + ca * t[:, Bond.NV]], -1)
+    sv = np.stack([-n[:, 1], n[:, 0]], -1)
+    ra = np.stack([ca * t[:, Bond.UA] - sa * t[:, Bond.VA], sa * t[:, Bond.UA] + ca * t[:, Bond.VA]], -1)
+    rb = np.stack([cb * t[:, Bond.UB] - sb * t[:, Bond.VB], sb * t[:, Bond.UB] + cb * t[:, Bond.VB]], -1)
+    # d(d_n, d_s, dth) / d(x_A, z_A, th_A, x_B, z_B, th_B), (P, 3, 6); a wall is no body
+    jac = np.zeros((len(t), 3, 6))
+    for q, vec in enumerate((n, sv)):
+        jac[:, q, 0:2] = -vec
+        jac[:, q, 2] = -(vec[:, 1] * ra[:, 0] - vec[:, 0] * ra[:, 1])
+        jac[:, q, 3:5] = vec
+        jac[:, q, 5] = vec[:, 1] * rb[:, 0] - vec[:, 0] * rb[:, 1]
+    jac[:, 2, 2] = -1.0
+    jac[:, 2, 5] = 1.0
+    jac[wall, :, 3:] = 0.0
+    k = np.einsum("pai,pa,paj->pij", jac, t[:, [Bond.KN, Bond.KS, Bond.KB]], jac)
+    dofs = np.concatenate([3 * i[:, None] + np.arange(3), 3 * jj[:, None] + np.arange(3)], 1)
+    scale = np.sqrt(diag[dofs])
+    contrib = np.abs(k / (scale[:, :, None] * scale[:, None, :])).sum(2)
+    contrib[wall, 3:] = 0.0
+    rows = np.zeros(diag.size)
+    np.add.at(rows, dofs.reshape(-1), contrib.reshape(-1))
+    return float(math.sqrt(rows.max()))
+
+
+def dt_limit(omega: float, zeta: float) -> float:
+    """The largest stable step of the kick-drift integrator for an oscillator of angular
+    frequency ``omega`` with an explicit dashpot of damping ratio ``zeta``:
+    ``2 (sqrt(1 + zeta^2) - zeta) / omega`` (``inf`` for ``omega = 0``)."""
+    return math.inf if omega <= 0 else 2.0 * (math.sqrt(1.0 + zeta * zeta) - zeta) / omega
+
+
+def check_start(scene, bergs) -> tuple[str, object, str] | None:
+    """The refusal ``(key, value, accepts)`` of a scene whose bonds cannot be made, or whose
+    ``time.dt`` is above the bonds' stable limit (unless ``time.allow_unstable``)."""
+    pair_list, bad = pairs(scene, bergs) if scene.start is None else (_start_pairs(scene, bergs), None)
+    if bad is not None:
+        return bad
+    table = build(scene, bergs, pair_list) if scene.start is None else _start_table(scene, bergs)
+    _, crowded = slots(bergs.count, table)
+    if crowded is not None:
+        return ("scene.effects", "bonds", f"iceberg {crowded} has more than {MAX_BONDS} bonds; bond at most {MAX_BONDS}")
+    omega = omega_max(table, bergs, scene.physics.density_ratio)
+    limit = dt_limit(omega, scene.physics.bond_damping)
+    dt = scene.time.dt
+    if dt > limit and not scene.time.allow_unstable:
+        return (
+            "time.dt",
+            dt,
+            f"above the bonds' stable limit 2 (sqrt(1 + zeta^2) - zeta) / omega_max = {limit:.4g} (omega_max = "
+            f"{omega:.4g}, the stiffest bond mode; physics.bond_modulus = {scene.physics.bond_modulus:g}); use "
+            f"time.dt <= {math.floor(limit * 1e4) / 1e4:g}, a smaller bond_modulus, or time.allow_unstable = true",
+        )
+    return None
+
+
+# ---------------------------------------------------------------- a [start] from a bonded run
+
+
+def _read_start(path: str):
+    import h5py
+
+    with h5py.File(path, "r", locking=False) as f:
+        if "bonds" not in f:
+            return None
+        g = f["bonds"]
+        return {k: g[k][...] for k in ("rest", "break_time")} | {"times": f["snapshots/time"][...]}
+
+
+def _start_table(scene, bergs) -> np.ndarray:
+    """The bonds of the run a ``[start]`` begins from, those intact at its time, with their
+    rest geometry (a bond stays at rest in the state it formed in) and the material of the
+    scene's own keys."""
+    got = _read_start(scene.start.file)
+    if got is None:
+        return build(scene, bergs, [])
+    # intact in the snapshot the state is taken from (the last at or before start.time): a
+    # bond that broke at t broke at the start of the step after the state at t
+    t = float(scene.start.time)
+    times = got["times"]
+    k = int(np.searchsorted(times, t + 1e-9 * max(1.0, abs(t)), side="right")) - 1
+    ts = float(times[max(k, 0)]) if times.size else 0.0
+    bt = got["break_time"]
+    keep = np.isnan(bt) | (bt > ts - 1e-9 * max(1.0, abs(ts)))
+    rest = got["rest"][keep]
+    rows = np.zeros((max(1, rest.shape[0]), TABLE.size))
+    rows[:, Bond.A] = -1.0
+    rows[:, Bond.B] = -1.0
+    for q, name in enumerate(GEOMETRY):
+        rows[: rest.shape[0], getattr(Bond, name)] = rest[:, q]
+    rows[: rest.shape[0], Bond.INTACT] = 1.0
+    return material(scene, bergs, rows)
+
+
+def _start_pairs(scene, bergs) -> list:
+    t = _start_table(scene, bergs)
+    return [(int(a), int(b)) for a, b in t[:, [Bond.A, Bond.B]] if a >= 0]
+
+
+# ---------------------------------------------------------------- fragments
+
+
+def fragments(n: int, table: np.ndarray) -> np.ndarray:
+    """Each iceberg's fragment label: the lowest iceberg index of its connected component
+    over the intact bonds (``scipy.sparse.csgraph``; the wall joins nothing)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    on = (table[:, Bond.INTACT] > 0.5) & (table[:, Bond.A] >= 0) & (table[:, Bond.B] >= 0)
+    a = table[on, Bond.A].astype(np.int64)
+    b = table[on, Bond.B].astype(np.int64)
+    graph = coo_matrix((np.ones(a.size), (a, b)), shape=(n, n))
+    _, comp = connected_components(graph, directed=False)
+    lowest = np.full(comp.max() + 1 if n else 0, n, dtype=np.int64)
+    np.minimum.at(lowest, comp, np.arange(n))
+    return lowest[comp]
+
+
+def bond_energy(table: np.ndarray, bodies: dict, dt: float = 0.0) -> float:
+    """Elastic energy of the intact bonds in the state ``bodies`` (``x, z, theta``, and with
+    ``dt > 0`` ``vx, vz, omega``), summed in f64: ``U`` of the kernel's formula
+    (:func:`.kernels.update`), and with ``dt``, ``U - dt/2 dU/dt``, the energy the kick-drift
+    step conserves for a linear spring (it tends to ``U`` as ``dt -> 0``)."""
+    t = table.astype(np.float64)
+    on = (t[:, Bond.INTACT] > 0.5) & (t[:, Bond.A] >= 0)
+    if not np.any(on):
+        return 0.0
+    t = t[on]
+    x, z, th = (np.asarray(bodies[k], dtype=np.float64) for k in ("x", "z", "theta"))
+    i = t[:, Bond.A].astype(np.int64)
+    j = t[:, Bond.B].astype(np.int64)
+    ca, sa = np.cos(th[i]), np.sin(th[i])
+    rax = ca * t[:, Bond.UA] - sa * t[:, Bond.VA]
+    raz = sa * t[:, Bond.UA] + ca * t[:, Bond.VA]
+    nx = ca * t[:, Bond.NU] - sa * t[:, Bond.NV]
+    nz = sa * t[:, Bond.NU] + ca * t[:, Bond.NV]
+    wall = j < 0
+    jj = np.where(wall, 0, j)
+    cb, sb = np.cos(th[jj]), np.sin(th[jj])
+    pbx = np.where(wall, t[:, Bond.UB], x[jj] + cb * t[:, Bond.UB] - sb * t[:, Bond.VB])
+    pbz = np.where(wall, t[:, Bond.VB], z[jj] + sb * t[:, Bond.UB] + cb * t[:, Bond.VB])
+    thb = np.where(wall, 0.0, th[jj])
+    dx = pbx - (x[i] + rax)
+    dz = pbz - (z[i] + raz)
+    dn = dx * nx + dz * nz
+    ds = -dx * nz + dz * nx
+    dth = thb - th[i] - t[:, Bond.DTH]
+    fn, fs, m = t[:, Bond.KN] * dn, t[:, Bond.KS] * ds, t[:, Bond.KB] * dth
+    u = 0.5 * (fn * dn + fs * ds + m * dth)
+    if dt == 0.0:
+        return float(np.sum(u))
+    # - dU/dt: the power of the bond's forces on the two bodies (the kernel's G, torques)
+    vx, vz, om = (np.asarray(bodies[k], dtype=np.float64) for k in ("vx", "vz", "omega"))
+    sx, sz = -nz, nx
+    gx, gz = fn * nx + fs * sx, fn * nz + fs * sz
+    ta = rax * gz - raz * gx - (t[:, Bond.KN] - t[:, Bond.KS]) * dn * ds + m
+    tb = -((pbx - x[jj]) * gz - (pbz - z[jj]) * gx) - m
+    tb = np.where(wall, 0.0, tb)
+    vbx, vbz, omb = (np.where(wall, 0.0, q[jj]) for q in (vx, vz, om))
+    work = gx * (vx[i] - vbx) + gz * (vz[i] - vbz) + ta * om[i] + tb * omb
+    return float(np.sum(u + 0.5 * dt * work))
+
+
+class BondState(State):
+    """The bonds of one model: the table's rows (one per bond, at least one) and the
+    icebergs' slots."""
+
+    def __init__(self, scene, np_real):
+        self.scene = scene
+        self.np_real = np_real
+        bergs = scene.icebergs()
+        self.n = bergs.count
+        if scene.start is not None:
+            self.table0 = _start_table(scene, bergs)
+        else:
+            pair_list, bad = pairs(scene, bergs)
+            if bad is not None:  # the scene's check refuses it first; a scene built around it
+                from ....scene.errors import error
+
+                raise error(*bad)
+            self.table0 = build(scene, bergs, pair_list)
+        self.count = int(np.sum(self.table0[:, Bond.A] >= 0))
+        self.rows = self.table0.shape[0]
+        self.dt = scene.time.dt
+
+    def initial(self) -> np.ndarray:
+        return self.table0.astype(self.np_real)
+
+    def bodies(self, rows: np.ndarray) -> None:
+        s, _ = slots(self.n, self.table0)
+        from ...data.schema import Body
+
+        for k in range(MAX_BONDS):
+            rows[:, Body.BOND_1 + k] = s[:, k]
+
+    def dims(self) -> dict[str, int]:
+        return {"bond": self.count, "bond_rest": len(REST)}
+
+    def constants(self) -> dict[str, np.ndarray]:
+        t = self.table0[: self.count]
+        return {
+            "bonds/a": t[:, Bond.A].astype(np.int64),
+            "bonds/b": t[:, Bond.B].astype(np.int64),
+            "bonds/rest": np.stack([t[:, getattr(Bond, name)] for name in REST], 1),
+        }
+
+    def sample(self, rows_: np.ndarray, bodies: dict) -> dict:
+        t = np.asarray(rows_, dtype=np.float64)
+        on = t[: self.count, Bond.INTACT] > 0.5
+        broken = ~on
+        nan = np.full(self.count, np.nan)
+        label = fragments(self.n, t)
+        return {
+            "bond_energy": np.array(bond_energy(t, bodies, self.dt)),
+            "bonds_intact": np.array(float(np.sum(on))),
+            "fragments": np.array(float(np.unique(label).size)),
+            "fragment": label,
+            "break_time": np.where(broken, t[: self.count, Bond.AGE] * self.dt, nan),
+            "break_stress": np.where(broken, t[: self.count, Bond.BREAK_SIG], nan),
+            "break_shear": np.where(broken, t[: self.count, Bond.BREAK_TAU], nan),
+        }

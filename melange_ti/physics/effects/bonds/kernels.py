@@ -1,0 +1,189 @@
+"""The bonds' Taichi side: the stage that updates every bond at the step's start (its
+forces, its dashpot, whether it breaks), and the terms that hand them to the icebergs.
+
+Each bond is updated by one thread (the stage's loop over the bond table is parallel in the
+parallel forms and on a device), writing only its own row; each iceberg then gathers its
+bonds' forces in its own slot order (``Body.BOND_1`` ...): no two threads write one value
+and no sum depends on the thread count, so every form gives the same bits. The physics is
+in :mod:`melange_ti.physics.effects.bonds`.
+"""
+
+import taichi as ti
+
+from ...data.schema import Body, Param
+from ...step.parts import Part, Stage
+from . import MAX_BONDS, Bond
+
+
+@ti.func
+def update(a: ti.template(), r):
+    """Bond ``r`` at the step's start: breaks it if its stress exceeds its strength (booking
+    the energy it held in ``REL``), else sets its elastic and dashpot forces."""
+    own = ti.static(a.own)
+    b = ti.static(a.b)
+    own[r, Bond.REL] = 0.0
+    gx, gz, ta, tb = 0.0, 0.0, 0.0, 0.0
+    dxf, dzf, da, db = 0.0, 0.0, 0.0, 0.0
+    if own[r, Bond.INTACT] > 0.5:
+        i = ti.cast(own[r, Bond.A], ti.i32)
+        j = ti.cast(own[r, Bond.B], ti.i32)
+        ca, sa = b[i, Body.COS], b[i, Body.SIN]
+        rax = ca * own[r, Bond.UA] - sa * own[r, Bond.VA]
+        raz = sa * own[r, Bond.UA] + ca * own[r, Bond.VA]
+        nx = ca * own[r, Bond.NU] - sa * own[r, Bond.NV]
+        nz = sa * own[r, Bond.NU] + ca * own[r, Bond.NV]
+        sx, sz = -nz, nx
+        # B's point, velocity and tilt (the wall: a fixed point, at rest, untilted)
+        rbx, rbz = 0.0, 0.0
+        pbx, pbz = own[r, Bond.UB], own[r, Bond.VB]
+        vbx, vbz, omb, thb = 0.0, 0.0, 0.0, 0.0
+        if j >= 0:
+            cb, sb = b[j, Body.COS], b[j, Body.SIN]
+            rbx = cb * own[r, Bond.UB] - sb * own[r, Bond.VB]
+            rbz = sb * own[r, Bond.UB] + cb * own[r, Bond.VB]
+            pbx = b[j, Body.X] + rbx
+            pbz = b[j, Body.Z] + rbz
+            omb = b[j, Body.OM]
+            vbx = b[j, Body.VX] - omb * rbz
+            vbz = b[j, Body.VZ] + omb * rbx
+            thb = b[j, Body.TH]
+        oma = b[i, Body.OM]
+        dx = pbx - (b[i, Body.X] + rax)
+        dz = pbz - (b[i, Body.Z] + raz)
+        dn = dx * nx + dz * nz
+        ds = dx * sx + dz * sz
+        dth = thb - b[i, Body.TH] - own[r, Bond.DTH]
+        kn, ks, kb = own[r, Bond.KN], own[r, Bond.KS], own[r, Bond.KB]
+        t = own[r, Bond.LEN]
+        fn = kn * dn
+        fs = ks * ds
+        m = kb * dth
+        sig = fn / t + 6.0 * ti.abs(m) / (t * t)
+        tau = ti.abs(fs) / t
+        gx = fn * nx + fs * sx
+        gz = fn * nz + fs * sz
+        ta = rax * gz - raz * gx - (kn - ks) * dn * ds + m
+        tb = -(rbx * gz - rbz * gx) - m
+        if sig > own[r, Bond.ST] or tau > own[r, Bond.SS]:
+            own[r, Bond.INTACT] = 0.0
+            own[r, Bond.BREAK_SIG] = sig
+            own[r, Bond.BREAK_TAU] = tau
+            # the energy it held as the step keeps it, U - dt/2 dU/dt (the bonds' docstring)
+            vbcx, vbcz = 0.0, 0.0
+            if j >= 0:
+                vbcx, vbcz = b[j, Body.VX], b[j, Body.VZ]
+            work = gx * (b[i, Body.VX] - vbcx) + gz * (b[i, Body.VZ] - vbcz) + ta * oma + tb * omb
+            own[r, Bond.REL] = 0.5 * (fn * dn + fs * ds + m * dth) + 0.5 * a.par[Param.DT] * work
+            gx, gz, ta, tb = 0.0, 0.0, 0.0, 0.0
+        else:
+            # the dashpot on the relative velocity of the two points, and of the tilts
+            vrx = vbx - (b[i, Body.VX] - oma * raz)
+            vrz = vbz - (b[i, Body.VZ] + oma * rax)
+            vn = vrx * nx + vrz * nz
+            vs = vrx * sx + vrz * sz
+            cn = own[r, Bond.CN] * vn
+            cs = own[r, Bond.CS] * vs
+            cw = own[r, Bond.CB] * (omb - oma)
+            dxf = cn * nx + cs * sx
+            dzf = cn * nz + cs * sz
+            # at the two points' midpoint on both bodies: no net torque (angular momentum kept)
+            max_, maz = rax + 0.5 * dx, raz + 0.5 * dz
+            mbx, mbz = rbx - 0.5 * dx, rbz - 0.5 * dz
+            if j < 0:
+                mbx, mbz = 0.0, 0.0
+            da = max_ * dzf - maz * dxf + cw
+            db = -(mbx * dzf - mbz * dxf) - cw
+            own[r, Bond.AGE] += 1.0
+    own[r, Bond.GX] = gx
+    own[r, Bond.GZ] = gz
+    own[r, Bond.TA] = ta
+    own[r, Bond.TB] = tb
+    own[r, Bond.DX] = dxf
+    own[r, Bond.DZ] = dzf
+    own[r, Bond.DA] = da
+    own[r, Bond.DB] = db
+
+
+@ti.func
+def update_all(fx: ti.template(), a: ti.template()):
+    """The stage: every bond (parallel over bonds in the parallel forms)."""
+    for r in range(a.own.shape[0]):
+        update(a, r)
+
+
+@ti.func
+def _gather(a: ti.template(), i, fx_col: ti.template(), fz_col: ti.template(), ta_col: ti.template(), tb_col: ti.template()):
+    """Body i's share of its bonds' columns (A: ``+F``, ``TA``; B: ``-F``, ``TB``), in slot order."""
+    f = ti.Vector([0.0, 0.0, 0.0])
+    for k in ti.static(range(MAX_BONDS)):
+        r = ti.cast(a.b[i, Body.BOND_1 + k], ti.i32) - 1
+        if r >= 0:
+            if ti.cast(a.own[r, Bond.A], ti.i32) == i:
+                f += ti.Vector([a.own[r, fx_col], a.own[r, fz_col], a.own[r, ta_col]])
+            else:
+                f += ti.Vector([-a.own[r, fx_col], -a.own[r, fz_col], a.own[r, tb_col]])
+    return f
+
+
+@ti.func
+def force(a: ti.template(), i):
+    """The elastic forces and torques of body i's bonds (set by :func:`update` this step)."""
+    return _gather(a, i, Bond.GX, Bond.GZ, Bond.TA, Bond.TB)
+
+
+@ti.func
+def damp(a: ti.template(), i, m, inertia):
+    """The dashpots' kick on body i after the forces; the kinetic energy it removes is booked
+    exactly in ``BOND_DAMPED``, and the energy of its bonds that broke this step in
+    ``BOND_RELEASED``."""
+    b = ti.static(a.b)
+    dt = a.par[Param.DT]
+    d = _gather(a, i, Bond.DX, Bond.DZ, Bond.DA, Bond.DB)
+    vx, vz, om = b[i, Body.VX], b[i, Body.VZ], b[i, Body.OM]
+    nvx = vx + dt * d[0] / m
+    nvz = vz + dt * d[1] / m
+    nom = om + dt * d[2] / inertia
+    b[i, Body.VX] = nvx
+    b[i, Body.VZ] = nvz
+    b[i, Body.OM] = nom
+    b[i, Body.BOND_DAMPED] += 0.5 * m * ((vx * vx + vz * vz) - (nvx * nvx + nvz * nvz)) + 0.5 * inertia * (om * om - nom * nom)
+    rel = 0.0
+    for k in ti.static(range(MAX_BONDS)):
+        r = ti.cast(b[i, Body.BOND_1 + k], ti.i32) - 1
+        if r >= 0:
+            share = 0.5
+            if a.own[r, Bond.B] < 0.0:
+                share = 1.0
+            rel += share * a.own[r, Bond.REL]
+    b[i, Body.BOND_RELEASED] += rel
+
+
+@ti.func
+def joined(a: ti.template(), i, j) -> ti.i32:
+    """1 if an intact bond joins icebergs i and j (their contact is the bond's)."""
+    found = 0
+    for k in ti.static(range(MAX_BONDS)):
+        r = ti.cast(a.b[i, Body.BOND_1 + k], ti.i32) - 1
+        if r >= 0:
+            if a.own[r, Bond.INTACT] > 0.5:
+                if ti.cast(a.own[r, Bond.A], ti.i32) == j or ti.cast(a.own[r, Bond.B], ti.i32) == j:
+                    found = 1
+    return found
+
+
+@ti.func
+def joined_wall(a: ti.template(), i) -> ti.i32:
+    """1 if an intact bond joins iceberg i to the wall."""
+    found = 0
+    for k in ti.static(range(MAX_BONDS)):
+        r = ti.cast(a.b[i, Body.BOND_1 + k], ti.i32) - 1
+        if r >= 0:
+            if a.own[r, Bond.INTACT] > 0.5 and a.own[r, Bond.B] < 0.0:
+                found = 1
+    return found
+
+
+# at the step's start, before the forces: every bond's forces, and its breaking
+STAGES = (("start", Stage("bonds", update_all, (Part(update_all),))),)
+
+__all__ = ["force", "damp", "joined", "joined_wall", "STAGES", "update"]
