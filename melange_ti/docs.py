@@ -53,7 +53,8 @@ def scenes_page() -> str:
         "the command line, `overrides={...}` from Python.",
         "",
         "The initial state comes from exactly one of `[shelf]` (the paper's row of icebergs, the",
-        "default), `[[iceberg]]` tables (one per iceberg) or `[start]` (the state of another run at",
+        "default), `[[iceberg]]` tables (one per iceberg; an effect may read tables that go with them,",
+        "such as `[[bond]]`) or `[start]` (the state of another run at",
         "one of its snapshots). Icebergs may not overlap each other or the wall at t = 0; overlap is",
         "judged with the collision discs (deeper than a tenth of a disc radius is refused), so any",
         "state the model produced is a valid start.",
@@ -88,6 +89,20 @@ def scenes_page() -> str:
             accepted = _cell(k.accepts.removeprefix("must be ")) if k.accepts else "any"
             out.append(f"| `{k.name}` | {_default(k.default)} | {_cell(k.units) or '—'} | {accepted} | {_cell(k.doc)} |")
         out.append("")
+    for e in REGISTRY:  # the arrays of tables an effect reads (Effect.tables): every key required
+        for name, keys, doc in e.tables:
+            out += [
+                f"## `[[{name}]]` — {_cell(doc)}",
+                "",
+                f"Read with `[[iceberg]]` tables only, whether or not the scene names `{e.name}`; every key is required.",
+                "",
+                "| key | units | accepted | meaning |",
+                "| --- | --- | --- | --- |",
+            ]
+            for k in keys:
+                accepted = _cell(k.accepts.removeprefix("must be ")) if k.accepts else "any"
+                out.append(f"| `{k.name}` | {_cell(k.units) or '—'} | {accepted} | {_cell(k.doc)} |")
+            out.append("")
     out += [
         "## Example",
         "",

@@ -326,6 +326,8 @@ ENERGY_STYLE = {
     "bonds": ("bonds' elastic energy gained", "gold", "-", 1.2),
     "bond_damping": ("bond dashpots dissipated", "tab:pink", "-", 1.2),
     "fracture_released": ("elastic energy of broken bonds", "darkgoldenrod", "--", 1.2),
+    "bond_offset": ("bonds' half-step offset", "khaki", ":", 1.2),
+    "bond_correction": ("overlap-correction work on bonds", "tab:brown", ":", 1.2),
     "residual": ("residual: energy lost but not booked (the time integrator's error)", "0.4", "--", 1.2),
 }
 

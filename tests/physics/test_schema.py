@@ -147,6 +147,8 @@ def test_derived_lists():
         "wave_absorbed",
         "bond_damping_dissipated",
         "fracture_released",
+        "bond_offset_work",
+        "bond_correction_work",
     }
     from melange_ti import diagnostics
 

@@ -35,6 +35,7 @@ PAPER_EFFECTS: tuple[str, ...] = tuple(e.name for e in REGISTRY if not e.beyond_
 BY_NAME = {e.name: e for e in REGISTRY}
 FORCES = tuple(e for e in REGISTRY if "force" in e.terms)
 DAMPERS = tuple(e for e in REGISTRY if "damp" in e.terms)
+AFTER_KICK = tuple(e for e in REGISTRY if "after_kick" in e.terms)
 ADDED = tuple(e for e in REGISTRY if "added_inertia" in e.terms)
 POST_DRIFT = tuple(e for e in REGISTRY if "post_drift" in e.terms)
 POTENTIALS = tuple(e for e in REGISTRY if "potential" in e.terms)
@@ -88,6 +89,7 @@ __all__ = [
     "Key",
     "FORCES",
     "DAMPERS",
+    "AFTER_KICK",
     "ADDED",
     "POST_DRIFT",
     "POTENTIALS",

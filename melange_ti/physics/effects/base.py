@@ -106,6 +106,8 @@ class Effect:
     ``added_inertia(a, i) -> ti.Vector([m_a, I_a])``
                                                mass and moment of inertia added to the
                                                iceberg's own (the water it carries)
+    ``after_kick(a, i)``                       right after the forces changed the velocities,
+                                               before any damping
     ``damp(a, i, m, inertia)``                 applied to the velocities after the forces;
                                                ``m``, ``inertia``: the iceberg's with any
                                                added inertia
@@ -220,6 +222,7 @@ class Effect:
     force = property(lambda self: self.term("force"))
     added_inertia = property(lambda self: self.term("added_inertia"))
     damp = property(lambda self: self.term("damp"))
+    after_kick = property(lambda self: self.term("after_kick"))
     post_drift = property(lambda self: self.term("post_drift"))
     potential = property(lambda self: self.term("potential"))
     impulse = property(lambda self: self.term("impulse"))
@@ -227,7 +230,7 @@ class Effect:
     joined_wall = property(lambda self: self.term("joined_wall"))
 
 
-TERMS = ("force", "added_inertia", "damp", "post_drift", "potential", "impulse", "joined", "joined_wall")
+TERMS = ("force", "added_inertia", "after_kick", "damp", "post_drift", "potential", "impulse", "joined", "joined_wall")
 
 
 class State:

@@ -12,7 +12,7 @@ step evaluates trigonometric functions.
 import taichi as ti
 
 from ..data.schema import Body, Param
-from ..effects import ADDED, DAMPERS, FORCES, POST_DRIFT, POTENTIALS
+from ..effects import ADDED, AFTER_KICK, DAMPERS, FORCES, POST_DRIFT, POTENTIALS
 from ..forms import fmath
 
 HAS_TORQUE = tuple(e for e in FORCES if e.torque)
@@ -75,6 +75,9 @@ def kick(fx: ti.template(), a: ti.template(), i):
         b[i, Body.VZ] += dt * fz / m
     if ti.static(any_on(HAS_TORQUE, fx)):
         b[i, Body.OM] += dt * tau / inertia
+    for e in ti.static(AFTER_KICK):
+        if ti.static(e.on(fx)):
+            e.after_kick(a, i)
     for e in ti.static(DAMPERS):
         if ti.static(e.on(fx)):
             e.damp(a, i, m, inertia)

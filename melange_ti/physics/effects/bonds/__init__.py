@@ -37,10 +37,16 @@ to ``fracture_released`` (half to each iceberg's ledger; the whole to a wall-bon
 from then on the pair meets through the ordinary contacts. While it holds, the pair has no
 contact (its contact is the bond's): the narrow phase skips it.
 
-**Time step.** The bonds' stiffest mode bounds the step: ``omega_max`` from Gershgorin's
-bound on the mass-weighted stiffness of the bond network at t = 0 (exact for a uniform
-chain's shortest wave), and the kick-drift step with the dashpot is stable for
-``dt <= 2 (sqrt(1 + zeta^2) - zeta) / omega_max``; a larger ``time.dt`` is refused.
+**Energy.** ``E`` holds the intact bonds' ``U - dt/2 dU/dt`` (the energy the kick-drift step
+conserves for a linear spring); ``fracture_released``, ``bond_damping_dissipated``,
+``bond_offset_work`` (that energy's move with every other velocity change) and
+``bond_correction_work`` (what the overlap correction's pushes put into bonds) close the
+budget (docs/bonds.md).
+
+**Time step.** The bonds' stiffest mode bounds the step: Gershgorin's bounds on the bond
+network's mass-weighted stiffness (``omega_max^2``) and dashpots (``gamma``) at t = 0, and the
+kick-drift step with the dashpot is stable for ``dt <= (sqrt(gamma^2 + 4 omega_max^2) -
+gamma) / omega_max^2``; a larger ``time.dt`` is refused.
 
 Units: stresses and the modulus in the model's stress unit ``rho_w g w`` (703,868 Pa for
 ``w = 70 m``: :func:`pascals`).
@@ -114,6 +120,7 @@ TABLE = Table(
         Column("DA", "scratch", "rho_w g w^3", "dashpot torque on A this step"),
         Column("DB", "scratch", "rho_w g w^3", "dashpot torque on B this step"),
         Column("REL", "scratch", E, "elastic energy it held when it broke, this step (0 otherwise)"),
+        Column("CORR", "scratch", E, "with contacts: its energy before the overlap correction, then what the correction put in"),
     ),
     Bond,
 )
@@ -214,8 +221,32 @@ EFFECT = Effect(
             budget=True,
             since=6,
         ),
+        Column(
+            "BOND_OFFSET",
+            "ledger",
+            E,
+            "dt/2 times its bonds' force times the velocity changes made after the forces' kick (damping, "
+            "impulses): the bonds' energy as the step keeps it moves by that; -> 0 as dt -> 0 (0 without the bonds "
+            "effect)",
+            "bond_offset_work",
+            budget=True,
+            since=6,
+        ),
+        Column(
+            "BOND_CORRECTION",
+            "ledger",
+            E,
+            "minus the energy the overlap correction's pushes put into its bonds (half of each; 0 without the "
+            "bonds effect)",
+            "bond_correction_work",
+            budget=True,
+            since=6,
+        ),
+        Column("BOND_V0X", "scratch", "w / sqrt(w/g)", "bonds: vx right after the forces' kick"),
+        Column("BOND_V0Z", "scratch", "w / sqrt(w/g)", "bonds: vz right after the forces' kick"),
+        Column("BOND_V0W", "scratch", "rad / sqrt(w/g)", "bonds: omega right after the forces' kick"),
     ),
-    terms=("force", "damp", "joined", "joined_wall"),
+    terms=("force", "after_kick", "damp", "post_drift", "joined", "joined_wall"),
     torque=True,
     horizontal=True,
     beyond_paper=True,
@@ -255,6 +286,7 @@ EFFECT = Effect(
             "sqrt(w/g)",
             "time the bond broke (NaN: intact at the last snapshot)",
             updated=True,
+            dtype="f8",
         ),
         Dataset(
             "bonds/break_stress",

@@ -211,9 +211,20 @@ def slots(n: int, table: np.ndarray) -> tuple[np.ndarray, int | None]:
 
 def omega_max(table: np.ndarray, bergs, density_ratio: float) -> float:
     """Gershgorin's bound on the bond network's highest angular frequency at t = 0: the
-    largest row sum of ``|M^-1/2 K M^-1/2|``, ``K`` the bonds' stiffness (the linearised
-    springs ``k_n, k_s, k_b`` on the relative motion of each bond's two points), ``M`` the
-    icebergs' masses and moments of inertia."""
+    square root of the largest row sum of ``|M^-1/2 K M^-1/2|``, ``K`` the bonds' stiffness
+    (the linearised springs ``k_n, k_s, k_b`` on the relative motion of each bond's two
+    points), ``M`` the icebergs' masses and moments of inertia."""
+    return math.sqrt(gershgorin(table, bergs, density_ratio, (Bond.KN, Bond.KS, Bond.KB)))
+
+
+def gamma_max(table: np.ndarray, bergs, density_ratio: float) -> float:
+    """Gershgorin's bound on the largest eigenvalue of ``M^-1/2 C M^-1/2``, ``C`` the bonds'
+    dashpots (as :func:`omega_max`, with ``c_n, c_s, c_b``)."""
+    return gershgorin(table, bergs, density_ratio, (Bond.CN, Bond.CS, Bond.CB))
+
+
+def gershgorin(table: np.ndarray, bergs, density_ratio: float, cols: tuple[int, int, int]) -> float:
+    """The largest row sum of ``|M^-1/2 J^T diag(cols) J M^-1/2|`` over the intact bonds."""
     on = (table[:, Bond.A] >= 0) & (table[:, Bond.INTACT] > 0.5)
     if not on.any():
         return 0.0
@@ -241,21 +252,25 @@ def omega_max(table: np.ndarray, bergs, density_ratio: float) -> float:
     jac[:, 2, 2] = -1.0
     jac[:, 2, 5] = 1.0
     jac[wall, :, 3:] = 0.0
-    k = np.einsum("pai,pa,paj->pij", jac, t[:, [Bond.KN, Bond.KS, Bond.KB]], jac)
+    k = np.einsum("pai,pa,paj->pij", jac, t[:, list(cols)], jac)
     dofs = np.concatenate([3 * i[:, None] + np.arange(3), 3 * jj[:, None] + np.arange(3)], 1)
     scale = np.sqrt(diag[dofs])
     contrib = np.abs(k / (scale[:, :, None] * scale[:, None, :])).sum(2)
     contrib[wall, 3:] = 0.0
     rows = np.zeros(diag.size)
     np.add.at(rows, dofs.reshape(-1), contrib.reshape(-1))
-    return float(math.sqrt(rows.max()))
+    return float(rows.max())
 
 
-def dt_limit(omega: float, zeta: float) -> float:
-    """The largest stable step of the kick-drift integrator for an oscillator of angular
-    frequency ``omega`` with an explicit dashpot of damping ratio ``zeta``:
-    ``2 (sqrt(1 + zeta^2) - zeta) / omega`` (``inf`` for ``omega = 0``)."""
-    return math.inf if omega <= 0 else 2.0 * (math.sqrt(1.0 + zeta * zeta) - zeta) / omega
+def dt_limit(omega: float, gamma: float) -> float:
+    """The largest stable step of the kick-drift integrator with an explicit dashpot for a
+    network whose stiffness and damping (mass-weighted) are bounded by ``omega^2`` and
+    ``gamma`` (:func:`omega_max`, :func:`gamma_max`): ``(sqrt(gamma^2 + 4 omega^2) - gamma) /
+    omega^2``, which for one oscillator (``gamma = 2 zeta omega``) is ``2 (sqrt(1 + zeta^2) -
+    zeta) / omega``; ``inf`` without bonds."""
+    if omega <= 0:
+        return math.inf
+    return (math.sqrt(gamma * gamma + 4.0 * omega * omega) - gamma) / (omega * omega)
 
 
 def check_start(scene, bergs) -> tuple[str, object, str] | None:
@@ -267,17 +282,31 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
     table = build(scene, bergs, pair_list) if scene.start is None else _start_table(scene, bergs)
     _, crowded = slots(bergs.count, table)
     if crowded is not None:
-        return ("scene.effects", "bonds", f"iceberg {crowded} has more than {MAX_BONDS} bonds; bond at most {MAX_BONDS}")
-    omega = omega_max(table, bergs, scene.physics.density_ratio)
-    limit = dt_limit(omega, scene.physics.bond_damping)
+        # the [[bond]] table that gives the iceberg one bond too many (a shelf has at most 2)
+        seen = 0
+        for k, t in enumerate(dict(scene.tables).get("bond", ())):
+            if crowded in (t["a"], t["b"]):
+                seen += 1
+                if seen > MAX_BONDS:
+                    key = "a" if t["a"] == crowded else "b"
+                    return (
+                        f"bond[{k}].{key}",
+                        crowded,
+                        f"bonds iceberg {crowded} a fifth time; an iceberg has at most {MAX_BONDS}",
+                    )
+        return ("scene.effects", "bonds", f"iceberg {crowded} has more than {MAX_BONDS} bonds")
+    r = scene.physics.density_ratio
+    omega, gamma = omega_max(table, bergs, r), gamma_max(table, bergs, r)
+    limit = dt_limit(omega, gamma)
     dt = scene.time.dt
     if dt > limit and not scene.time.allow_unstable:
+        digits = 10 ** (math.floor(math.log10(limit)) - 2)
         return (
             "time.dt",
             dt,
-            f"above the bonds' stable limit 2 (sqrt(1 + zeta^2) - zeta) / omega_max = {limit:.4g} (omega_max = "
-            f"{omega:.4g}, the stiffest bond mode; physics.bond_modulus = {scene.physics.bond_modulus:g}); use "
-            f"time.dt <= {math.floor(limit * 1e4) / 1e4:g}, a smaller bond_modulus, or time.allow_unstable = true",
+            f"above the bonds' stable limit {limit:.4g} (their stiffest mode bounded by omega_max = {omega:.4g}, "
+            f"their dashpots by {gamma:.4g}; physics.bond_modulus = {scene.physics.bond_modulus:g}); use time.dt <= "
+            f"{math.floor(limit / digits) * digits:.3g}, a smaller bond_modulus, or time.allow_unstable = true",
         )
     return None
 

@@ -11,7 +11,7 @@ in :mod:`melange_ti.physics.effects.bonds`.
 import taichi as ti
 
 from ...data.schema import Body, Param
-from ...step.parts import Part, Stage
+from ...step.parts import Part, Stage, contacts
 from . import MAX_BONDS, Bond
 
 
@@ -132,6 +132,15 @@ def force(a: ti.template(), i):
 
 
 @ti.func
+def after_kick(a: ti.template(), i):
+    """The body's velocities right after the forces' kick, for :func:`post_drift`'s booking."""
+    b = ti.static(a.b)
+    b[i, Body.BOND_V0X] = b[i, Body.VX]
+    b[i, Body.BOND_V0Z] = b[i, Body.VZ]
+    b[i, Body.BOND_V0W] = b[i, Body.OM]
+
+
+@ti.func
 def damp(a: ti.template(), i, m, inertia):
     """The dashpots' kick on body i after the forces; the kinetic energy it removes is booked
     exactly in ``BOND_DAMPED``, and the energy of its bonds that broke this step in
@@ -159,6 +168,100 @@ def damp(a: ti.template(), i, m, inertia):
 
 
 @ti.func
+def post_drift(a: ti.template(), i):
+    """The offset: the bonds' energy as the step keeps it, ``U + dt/2 F . v``, changes by
+    ``dt/2 F . dv`` when anything after the forces' kick changes the body's velocity (the
+    dashpot, drag, impulses), which those terms' own ledgers, counting kinetic energy, do not
+    see: booked in ``BOND_OFFSET`` as ``dt/2 F . (v_new - v_kicked)``. (The forces' kick
+    itself is the step's own: the energy it conserves.)"""
+    b = ti.static(a.b)
+    dt = a.par[Param.DT]
+    f = _gather(a, i, Bond.GX, Bond.GZ, Bond.TA, Bond.TB)
+    dv = ti.Vector(
+        [b[i, Body.VX] - b[i, Body.BOND_V0X], b[i, Body.VZ] - b[i, Body.BOND_V0Z], b[i, Body.OM] - b[i, Body.BOND_V0W]]
+    )
+    b[i, Body.BOND_OFFSET] += 0.5 * dt * f.dot(dv)
+
+
+@ti.func
+def held_energy(a: ti.template(), r):
+    """Bond r's energy as the step keeps it now, ``U - dt/2 dU/dt`` (0 if broken): the
+    formula of :func:`update`, from the current state."""
+    own = ti.static(a.own)
+    b = ti.static(a.b)
+    out = 0.0
+    if own[r, Bond.INTACT] > 0.5:
+        i = ti.cast(own[r, Bond.A], ti.i32)
+        j = ti.cast(own[r, Bond.B], ti.i32)
+        ca, sa = b[i, Body.COS], b[i, Body.SIN]
+        rax = ca * own[r, Bond.UA] - sa * own[r, Bond.VA]
+        raz = sa * own[r, Bond.UA] + ca * own[r, Bond.VA]
+        nx = ca * own[r, Bond.NU] - sa * own[r, Bond.NV]
+        nz = sa * own[r, Bond.NU] + ca * own[r, Bond.NV]
+        rbx, rbz = 0.0, 0.0
+        pbx, pbz = own[r, Bond.UB], own[r, Bond.VB]
+        vbx, vbz, omb, thb = 0.0, 0.0, 0.0, 0.0
+        if j >= 0:
+            cb, sb = b[j, Body.COS], b[j, Body.SIN]
+            rbx = cb * own[r, Bond.UB] - sb * own[r, Bond.VB]
+            rbz = sb * own[r, Bond.UB] + cb * own[r, Bond.VB]
+            pbx = b[j, Body.X] + rbx
+            pbz = b[j, Body.Z] + rbz
+            vbx, vbz, omb, thb = b[j, Body.VX], b[j, Body.VZ], b[j, Body.OM], b[j, Body.TH]
+        dx = pbx - (b[i, Body.X] + rax)
+        dz = pbz - (b[i, Body.Z] + raz)
+        dn = dx * nx + dz * nz
+        ds = -dx * nz + dz * nx
+        dth = thb - b[i, Body.TH] - own[r, Bond.DTH]
+        fn, fs, m = own[r, Bond.KN] * dn, own[r, Bond.KS] * ds, own[r, Bond.KB] * dth
+        gx = fn * nx - fs * nz
+        gz = fn * nz + fs * nx
+        ta = rax * gz - raz * gx - (own[r, Bond.KN] - own[r, Bond.KS]) * dn * ds + m
+        tb = -(rbx * gz - rbz * gx) - m
+        work = gx * (b[i, Body.VX] - vbx) + gz * (b[i, Body.VZ] - vbz) + ta * b[i, Body.OM] + tb * omb
+        out = 0.5 * (fn * dn + fs * ds + m * dth) + 0.5 * a.par[Param.DT] * work
+    return out
+
+
+@ti.func
+def before_correction(fx: ti.template(), a: ti.template()):
+    """Every bond's energy before the overlap correction moves the icebergs (``REL`` holds it
+    until :func:`after_correction`; the bonds that broke this step were booked already)."""
+    for r in range(a.own.shape[0]):
+        a.own[r, Bond.CORR] = held_energy(a, r)
+
+
+@ti.func
+def after_correction(fx: ti.template(), a: ti.template()):
+    """What the correction put into each bond, ``CORR`` (before minus after)."""
+    for r in range(a.own.shape[0]):
+        a.own[r, Bond.CORR] -= held_energy(a, r)
+
+
+@ti.func
+def book_correction(fx: ti.template(), a: ti.template()):
+    """Each iceberg books its bonds' shares (half each; a wall bond's whole) in
+    ``BOND_CORRECTION``: the correction's pushes change the bonds' energy, which the
+    correction's own ledger (the icebergs' potential energy) does not see."""
+    for i in range(a.b.shape[0]):
+        got = 0.0
+        for k in ti.static(range(MAX_BONDS)):
+            r = ti.cast(a.b[i, Body.BOND_1 + k], ti.i32) - 1
+            if r >= 0:
+                share = 0.5
+                if a.own[r, Bond.B] < 0.0:
+                    share = 1.0
+                got += share * a.own[r, Bond.CORR]
+        a.b[i, Body.BOND_CORRECTION] += got
+
+
+@ti.func
+def correction_stage(fx: ti.template(), a: ti.template()):
+    after_correction(fx, a)
+    book_correction(fx, a)
+
+
+@ti.func
 def joined(a: ti.template(), i, j) -> ti.i32:
     """1 if an intact bond joins icebergs i and j (their contact is the bond's)."""
     found = 0
@@ -183,7 +286,15 @@ def joined_wall(a: ti.template(), i) -> ti.i32:
     return found
 
 
-# at the step's start, before the forces: every bond's forces, and its breaking
-STAGES = (("start", Stage("bonds", update_all, (Part(update_all),))),)
+# at the step's start, before the forces: every bond's forces, and its breaking; around the
+# overlap correction (with contacts): what its pushes put into the bonds
+STAGES = (
+    ("start", Stage("bonds", update_all, (Part(update_all),))),
+    ("drift", Stage("bonds_before_correction", before_correction, (Part(before_correction),), needs=contacts)),
+    (
+        "correction",
+        Stage("bonds_correction", correction_stage, (Part(after_correction), Part(book_correction)), needs=contacts),
+    ),
+)
 
-__all__ = ["force", "damp", "joined", "joined_wall", "STAGES", "update"]
+__all__ = ["force", "after_kick", "damp", "post_drift", "joined", "joined_wall", "STAGES", "update"]

@@ -1,0 +1,225 @@
+"""Shelf to melange (issue #31): the tensile strength below which a capsize breaks up an intact shelf.
+
+    python validation/shelf_breakup.py scan  [--count 50] [--duration 1000]   # log sweep, cheap
+    python validation/shelf_breakup.py sweep [--count 400] [--duration 2000] [--strengths ...] [--seeds 1,2]
+    python validation/shelf_breakup.py seeds [--count 400] [--duration 2000] --strength S [--seeds 1,...,8]
+    python validation/shelf_breakup.py table                                   # the CSVs again from the run files
+    python validation/shelf_breakup.py plot                                    # phase.png from the CSVs
+
+``runs/shelf_breakup.toml`` (the paper's icebergs as one bonded shelf, the first bonded to the
+wall, only the seaward one free and tilted) at ``physics.tensile_strength = shear_strength = S``
+(Weibull modulus 5 about it, drawn from ``time.seed``), one run at a time on one thread, against
+the paper's pre-cut scene (``runs/paper.toml``, same count and duration). Each run's end state
+is a row: capsized fraction, leading edge, pieces (``fragments``), the fraction of bonds intact,
+the released energy and the budget's residual relative to it, ``depth`` (how far into the shelf,
+in icebergs from its seaward end, the deepest capsized iceberg started), and three times: the last bond's
+break, and when the capsize front reached the middle of the shelf and its inner tenth (the first
+snapshot where an iceberg that started there or deeper has capsized; empty: never). ``scan`` writes ``scan.csv``,
+``sweep`` ``sweep.csv`` (plus ``phase.png``), ``seeds`` ``seeds.csv``, all in
+``validation/results/shelf_breakup/``; the run files go to ``runs/shelf_breakup/`` (not kept).
+"""
+
+import argparse
+import csv
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+import melange_ti as mt
+from melange_ti.analysis import stats
+from melange_ti.diagnostics import capsized
+from melange_ti.physics.effects.bonds import pascals
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT / "runs" / "shelf_breakup.toml"
+PAPER = ROOT / "runs" / "paper.toml"
+OUT = ROOT / "validation" / "results" / "shelf_breakup"
+RUNS = ROOT / "runs" / "shelf_breakup"
+PA = pascals(70.0)  # the stress unit at w = 70 m
+INNER = 0.1  # the front has crossed when an iceberg of the inner tenth (by start position) capsizes
+COLUMNS = (
+    "scene", "count", "duration", "strength", "strength_MPa", "seed", "capsized", "leading_edge", "fragments",
+    "bonds_intact", "released", "residual", "residual_rel", "depth", "t_last_break", "t_half", "t_cross", "wall_s", "steps_per_s",
+)  # fmt: skip
+
+
+def end_state(path: Path) -> dict:
+    """One run file's end state (see the module docstring)."""
+    with h5py.File(path, "r") as f:
+        d = {k: f["diagnostics"][k][:] for k in f["diagnostics"]}
+        x, th, ts = f["snapshots/x"][:], f["snapshots/theta"][:], f["snapshots/time"][:]
+        broken = f["bonds/break_time"][:] if "bonds" in f else np.zeros(0)
+    budget = stats.energy_budget(d)
+    n = x.shape[1]
+    rank = np.argsort(np.argsort(-x[0])) / n  # 0: the seaward iceberg, near 1: the one at the wall
+    caps = capsized(th)
+
+    def reached(depth: float):
+        """The first snapshot time an iceberg that started ``depth`` into the shelf or deeper has capsized."""
+        k = np.flatnonzero(np.any(caps & (rank >= depth), axis=1))
+        return float(ts[k[0]]) if k.size else ""
+
+    bonds = d.get("bonds_intact")
+    last = broken[np.isfinite(broken) & (broken >= 0)] if broken.size else broken
+    return {
+        "capsized": float(d["capsized_fraction"][-1]),
+        "leading_edge": float(d["leading_edge"][-1]),
+        "fragments": int(d["fragments"][-1]),
+        "bonds_intact": float(bonds[-1] / bonds[0]) if bonds is not None and bonds[0] > 0 else "",
+        "released": float(budget["released"][-1]),
+        "residual": float(budget["residual"][-1]),
+        "residual_rel": float(budget["residual"][-1] / budget["released"][-1]),
+        "t_last_break": float(last.max()) if last.size else "",
+        "depth": float(np.max(rank[caps[-1]]) * n + 1) if caps[-1].any() else 0.0,
+        "t_half": reached(0.5),
+        "t_cross": reached(1 - INNER),
+    }
+
+
+def run_path(tag: str, count, strength, seed) -> Path:
+    return RUNS / f"{tag}_n{count}_s{strength if strength not in (None, '') else 'cut'}_seed{seed}.h5"
+
+
+def one(scene_path: Path, tag: str, count: int, duration: float, seed: int, strength: float | None) -> dict:
+    over = {"shelf.count": count, "time.duration": duration, "time.seed": seed}
+    if strength is not None:
+        over |= {"physics.tensile_strength": strength, "physics.shear_strength": strength}
+    RUNS.mkdir(parents=True, exist_ok=True)
+    out = run_path(tag, count, strength, seed)
+    t0 = time.time()
+    r = mt.run(mt.load_scene(scene_path, overrides=over), out=out, overwrite=True, threads=1)
+    row = {
+        "scene": tag,
+        "count": count,
+        "duration": duration,
+        "strength": strength if strength is not None else "",
+        "strength_MPa": strength * PA / 1e6 if strength is not None else "",
+        "seed": seed,
+        **end_state(out),
+        "wall_s": round(time.time() - t0, 1),
+        "steps_per_s": round(r.steps_per_second),
+    }
+    print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()), flush=True)
+    return row
+
+
+def write(rows: list[dict], name: str) -> None:
+    OUT.mkdir(parents=True, exist_ok=True)
+    with open(OUT / name, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=COLUMNS)
+        w.writeheader()
+        w.writerows(rows)
+
+
+def read(name: str) -> list[dict]:
+    p = OUT / name
+    if not p.exists():
+        return []
+    with open(p) as fh:
+        return list(csv.DictReader(fh))
+
+
+def plot() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    # sweep_after_edit.csv: runs made while the bonds' energy ledgers were being changed (their
+    # motion bit for bit the same, their residuals booked otherwise; docs/validation.md)
+    rows, scan = read("sweep.csv") + read("sweep_after_edit.csv"), read("scan.csv")
+    bonded = [r for r in rows if r["scene"] == "shelf_breakup"]
+    paper = [r for r in rows if r["scene"] == "paper"]
+    fig, axes = plt.subplots(2, 1, figsize=(7.5, 7.5), sharex=True, layout="constrained")
+    for ax, key, label in zip(
+        axes, ("capsized", "leading_edge"), ("capsized fraction at the end", "leading edge at the end (w)"), strict=True
+    ):
+        for seed, marker in zip(sorted({r["seed"] for r in bonded}), "os^Dv<>p", strict=False):
+            pts = [(float(r["strength"]), float(r[key])) for r in bonded if r["seed"] == seed]
+            if pts:
+                n = bonded[0]["count"]
+                ax.plot(*zip(*pts, strict=True), marker, ms=6, mfc="none", label=f"bonded shelf, N = {n}, seed {seed}")
+        if scan and key == "capsized":
+            pts = [(float(r["strength"]), float(r[key])) for r in scan]
+            ax.plot(
+                *zip(*pts, strict=True),
+                "x",
+                color="0.5",
+                label=f"bonded shelf, N = {scan[0]['count']} (scan, t = {float(scan[0]['duration']):g})",
+            )
+        for r, ls in zip(paper, ("-", "--", ":", "-."), strict=False):
+            ax.axhline(float(r[key]), color="k", ls=ls, lw=1, label=f"paper scene, pre-cut (gap 0.1), seed {r['seed']}")
+        ax.set_xscale("log")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3, which="both")
+    axes[-1].set_xlabel("tensile strength = shear strength (rho_w g w); Weibull modulus 5 about it")
+    top = axes[0].secondary_xaxis("top", functions=(lambda s: s * PA / 1e6, lambda m: m * 1e6 / PA))
+    top.set_xlabel("MPa at w = 70 m")
+    axes[0].legend(fontsize=7)
+    dur = float(rows[0]["duration"]) if rows else float("nan")
+    fig.suptitle(f"Shelf to mélange: the intact shelf's end state (t = {dur:g}) against its bonds' strength", fontsize=10)
+    fig.savefig(OUT / "phase.png", dpi=120)
+    print(f"wrote {OUT / 'phase.png'}")
+
+
+def table() -> None:
+    """The CSVs' end-state columns again from their run files (where still there)."""
+    for name in ("scan.csv", "sweep.csv", "seeds.csv"):
+        rows = read(name)
+        for r in rows:
+            p = run_path(r["scene"], r["count"], r["strength"], r["seed"])
+            if p.exists():
+                r |= end_state(p)
+        if rows:
+            write(rows, name)
+            print(f"{name}: {len(rows)} rows")
+
+
+def floats(text: str) -> list[float]:
+    return [float(v) for v in text.split(",")]
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("what", choices=("scan", "sweep", "seeds", "table", "plot"))
+    p.add_argument("--count", type=int)
+    p.add_argument("--duration", type=float)
+    p.add_argument("--strengths", type=floats)
+    p.add_argument("--strength", type=float)
+    p.add_argument("--seeds", type=lambda t: [int(v) for v in t.split(",")])
+    p.add_argument("--no-paper", action="store_true", help="sweep: skip the pre-cut reference runs")
+    a = p.parse_args()
+    if a.what == "plot":
+        return plot()
+    if a.what == "table":
+        return table()
+    if a.what == "scan":
+        n, dur = a.count or 50, a.duration or 1000.0
+        strengths = a.strengths or [0.3552, 0.3, 0.25, 0.2, 0.17, 0.15, 0.13, 0.115, 0.1, 0.03, 0.01, 0.003, 0.001, 1e-4]
+        write([one(SCENE, "shelf_breakup", n, dur, seed, s) for seed in (a.seeds or [1]) for s in strengths], "scan.csv")
+        return None
+    n, dur = a.count or 400, a.duration or 2000.0
+    if a.what == "seeds":
+        if a.strength is None:
+            sys.exit("seeds: --strength is required (a value below the critical strength)")
+        write([one(SCENE, "shelf_breakup", n, dur, seed, a.strength) for seed in (a.seeds or range(1, 9))], "seeds.csv")
+        return None
+    # rows of the same count and duration already in sweep.csv are kept (a sweep extended in
+    # several calls), a run done again replaces its row; the CSV is written after every run
+    rows = [r for r in read("sweep.csv") if int(r["count"]) == n and float(r["duration"]) == dur]
+    seeds = a.seeds or [1, 2]
+    todo = [] if a.no_paper else [(PAPER, "paper", seed, None) for seed in seeds]
+    todo += [(SCENE, "shelf_breakup", seed, s) for s in a.strengths or [0.3552, 0.2, 0.15, 0.13, 0.1, 0.01] for seed in seeds]
+    for path, tag, seed, s in todo:
+        row = one(path, tag, n, dur, seed, s)
+        key = (tag, str(s if s is not None else ""), str(seed))
+        rows = [r for r in rows if (r["scene"], str(r["strength"]), str(r["seed"])) != key] + [row]
+        write(sorted(rows, key=lambda r: (r["scene"], float(r["strength"] or 0), int(r["seed"]))), "sweep.csv")
+    plot()
+
+
+if __name__ == "__main__":
+    main()
