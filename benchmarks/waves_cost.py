@@ -1,14 +1,17 @@
 """What the waves effect costs per step: the paper scene (400 icebergs, the active state
-t = 45-55) without and with waves, side by side in one process, alternating.
+t = 45-55) without and with waves, side by side in one process, alternating; then what each
+part of the waves' step costs.
 
     python benchmarks/waves_cost.py --csv benchmarks/results/waves/waves_cost.csv
 
 Each configuration: the shelf advanced to t = 45 in its own model, then ``--repeats`` timed
 blocks of ``--steps`` steps, the configurations alternating block by block. ``wave_dx`` 0.25
-(4,096 cells over 600 widths) and 0.3 (2,048 cells). Writes the CSV and a PNG beside it.
+(4,096 cells over 600 widths) and 0.3 (2,048 cells). Then the parts, on the default grid's
+model at t = 45 (after one more step, so that each iceberg's pose at the step's start is the
+last step's): each part alone in a kernel that runs it ``--part-reps`` times, serial as the
+step's serial form, alternating with a block of the paper's steps (best of ``--repeats``).
+Writes the CSV, ``waves_parts.csv`` beside it and a PNG of both.
 """
-
-from __future__ import annotations
 
 import argparse
 import csv
@@ -20,6 +23,7 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--steps", type=int, default=500)
     p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--part-reps", type=int, default=200)
     p.add_argument("--csv", default="benchmarks/results/waves/waves_cost.csv")
     a = p.parse_args()
     import taichi as ti
@@ -46,11 +50,7 @@ def main() -> None:
     times = {name: [] for name in configs}
     for _ in range(a.repeats):
         for name, m in models.items():
-            ti.sync()
-            t0 = time.perf_counter()
-            m.advance(a.steps)
-            ti.sync()
-            times[name].append((time.perf_counter() - t0) / a.steps * 1e3)
+            times[name].append(_block(ti, m, a.steps))
     out = Path(a.csv)
     out.parent.mkdir(parents=True, exist_ok=True)
     base = min(times["paper"])
@@ -69,17 +69,119 @@ def main() -> None:
                 ]
             )
             print(f"{name}: best {ts[0]:.3f} ms/step, median {ts[len(ts) // 2]:.3f}, {ts[0] / base:.2f}x the paper's")
+
+    parts = _parts(ti, models["paper"], models["paper + waves, wave_dx 0.25"], a)
+    with open(out.with_name("waves_parts.csv"), "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["part", "ms_per_step_best", "ratio_to_paper_step"])
+        for name, t in parts.items():
+            w.writerow([name, f"{t:.4f}", f"{t / parts['paper step']:.2f}"])
+            print(f"{name}: {t:.4f} ms, {t / parts['paper step']:.2f}x the paper's step")
+
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 3), layout="constrained")
+    fig, (ax, bx) = plt.subplots(2, 1, figsize=(10, 6), layout="constrained", height_ratios=(3, 7))
     names = list(times)
     ax.barh(names, [min(times[n]) for n in names], color=["0.5", "tab:blue", "tab:cyan"])
-    ax.set_xlabel("ms per step (best of the alternating blocks; serial form, 1 thread)")
+    ax.set_xlabel("ms per step (best of the alternating blocks; serial form, 1 thread)", fontsize=9)
     ax.set_title("paper scene, 400 icebergs, t = 45-55: the cost of the waves effect", fontsize=9)
+    names = list(parts)
+    bx.barh(names, [parts[n] for n in names], color=["0.5"] + ["tab:blue"] * (len(names) - 1))
+    bx.set_xlabel("ms per call (best of the alternating repeats)", fontsize=9)
+    bx.set_title("the waves' step part by part (wave_dx 0.25), against the paper's whole step", fontsize=9)
+    for axis in (ax, bx):
+        axis.invert_yaxis()
     fig.savefig(out.with_suffix(".png"), dpi=120)
+
+
+def _block(ti, m, steps: int) -> float:
+    """ms per step of ``steps`` steps of model ``m``."""
+    ti.sync()
+    t0 = time.perf_counter()
+    m.advance(steps)
+    ti.sync()
+    return (time.perf_counter() - t0) / steps * 1e3
+
+
+def _parts(ti, paper, waves, a) -> dict[str, float]:
+    """ms per call of each part of the waves' step on ``waves`` (its state is spoilt after),
+    with the paper's step (``paper``) timed between them."""
+    from melange_ti.physics.data.schema import Arrays, Body
+    from melange_ti.physics.effects.waves import coupling, grid
+
+    arr = ti.types.ndarray()
+
+    def kernel(body):
+        @ti.kernel
+        def run(n: ti.i32, b: arr, bi: arr, cd: arr, cp: arr, nl: arr, nr: arr, cells: arr, par: arr, scr: arr,
+                cfg: arr, cnt: arr, acc: arr, red: arr, own: arr):  # fmt: skip
+            a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, own))
+            ti.loop_config(serialize=True)
+            for _ in range(1):
+                for _r in range(n):
+                    body(a)
+
+        return run
+
+    @ti.func
+    def force(a: ti.template()):
+        for i in range(a.b.shape[0]):
+            f = coupling.force(a, i)
+            a.b[i, Body.START_X] += 0.0 * (f[0] + f[1] + f[2])  # kept: the force is used
+
+    @ti.func
+    def deposit(a: ti.template()):
+        for i in range(a.b.shape[0]):
+            coupling.deposit(a, i)
+
+    @ti.func
+    def update(a: ti.template()):
+        grid._update(a, False)
+
+    @ti.func
+    def pressure(a: ti.template()):
+        grid._pressure_surface(a, False)
+
+    @ti.func
+    def sponge(a: ti.template()):
+        grid._sponge_serial(a)
+
+    @ti.func
+    def kick(a: ti.template()):
+        grid.kick_grid(None, a)
+
+    kernels = {
+        "force: the wave's pressure on each iceberg": kernel(force),
+        "deposit: the water each iceberg displaced": kernel(deposit),
+        "grid: G phi and the displaced water (a pair of filters)": kernel(update),
+        "grid: the pressure surface (one filter)": kernel(pressure),
+        "grid: the absorbing layer": kernel(sponge),
+        "grid: phi's kick": kernel(kick),
+    }
+    waves.advance(1)  # the icebergs' poses at the step's start: the last step's
+    own = waves.arrays.own.to_numpy()
+    bodies = waves.arrays.b.to_numpy()
+    # deposit first: force() overwrites the poses at the step's start with the current ones
+    order = ["deposit: the water each iceberg displaced", *(n for n in kernels if not n.startswith("deposit"))]
+    for name in order:
+        kernels[name](1, *waves.arrays)
+    waves.arrays.own.from_numpy(own)
+    waves.arrays.b.from_numpy(bodies)
+    best = {"paper step": 1e9, **{name: 1e9 for name in order}}
+    for _ in range(a.repeats):
+        best["paper step"] = min(best["paper step"], _block(ti, paper, a.steps))
+        for name in order:
+            ti.sync()
+            t0 = time.perf_counter()
+            kernels[name](a.part_reps, *waves.arrays)
+            ti.sync()
+            best[name] = min(best[name], (time.perf_counter() - t0) / a.part_reps * 1e3)
+        waves.arrays.own.from_numpy(own)
+        waves.arrays.b.from_numpy(bodies)
+    return {"paper step": best["paper step"], **{name: best[name] for name in kernels}}
 
 
 if __name__ == "__main__":

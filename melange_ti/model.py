@@ -8,11 +8,15 @@ array is allocated and no contact kernel runs. The step is the stage list of
 
 For small N on the CPU one kernel call runs many steps with every loop serial (no launch
 cost); for large N each stage is launched as parallel kernels. Both give the same bits; in
-between, with several threads, the first advance times both and keeps the faster.
+between, with several threads, the first advance times both and keeps the faster. The
+contact passes' order (``contacts.order``, or ``Model(order=...)``) is fixed too: its
+``"auto"`` is sequential on the CPU and coloured on a device (``Model.order`` says which;
+:mod:`melange_ti.physics.forms.colours`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import make_dataclass
@@ -45,9 +49,10 @@ from .physics.data.schema import (
     body_width,
     contact_width,
 )
-from .physics.forms import device
+from .physics.forms import colours, device
 from .physics.step import narrow, stages
 from .scene import Icebergs, Scene
+from .scene.keys import ORDERS
 
 # On the CPU up to this N one kernel call runs many serial steps, above it each stage is
 # launched as parallel kernels (the same bits): where the forms cross, docs/performance.md.
@@ -96,10 +101,10 @@ class Model:
         islands: bool | None = None,
         device_parts: bool | None = None,
         groups: int | None = None,
+        order: str | None = None,
     ):
         bergs = icebergs if icebergs is not None else scene.icebergs()
         self.scene = scene
-        self.fx = scene.effects
         self.n = n = bergs.count
         self.real = ti.f32 if scene.precision == "f32" else ti.f64
         self.np_real = np.float32 if scene.precision == "f32" else np.float64
@@ -109,6 +114,15 @@ class Model:
         cfg = ti.lang.impl.current_cfg()
         on_cpu = cfg.arch in (ti.x64, ti.arm64)
         threads = int(cfg.cpu_max_num_threads) if on_cpu else 0
+        # the contact passes' order (contacts.order; physics/forms/colours.py): "auto" is
+        # sequential on the CPU, coloured on a device; with no contact there is nothing to order
+        order = scene.contacts.order if order is None else order
+        if order not in ORDERS:
+            raise ValueError(f"order must be one of {', '.join(ORDERS)}, not {order!r}")
+        coloured = scene.effects.contacts and (order == "coloured" or (order == "auto" and not on_cpu))
+        self.order = "coloured" if coloured else "sequential"
+        self.fx = dataclasses.replace(scene.effects, coloured=coloured)
+        self._colours: int | None = None  # colours of the last colouring, once read
         # the parallel form solves islands side by side where there are threads to pay for
         # finding them (ISLANDS_MIN_THREADS); both ways give the same bits
         self.islands = (not on_cpu or threads >= ISLANDS_MIN_THREADS) if islands is None else bool(islands)
@@ -119,7 +133,7 @@ class Model:
         # side, one per CPU thread (physics/forms/groups.py; the same bits on any number of groups)
         if groups is None:
             groups = threads if on_cpu else 1
-        grouped = on_cpu and not self.islands and not self.device_parts
+        grouped = on_cpu and not self.islands and not self.device_parts and not coloured
         self.groups = max(1, min(int(groups), n - 1, MAX_GROUPS)) if grouped else 1
         if mode == "auto":
             mode = "serial" if on_cpu and n <= SERIAL_MAX_N else "parallel"
@@ -211,6 +225,7 @@ class Model:
         cfg[Config.DISCS] = scene.contacts.discs
         cfg[Config.LISTS] = int(self.lists)
         cfg[Config.GROUPS] = self.groups
+        cfg[Config.ID_BITS] = colours.id_bits(n, slots)
         for name, value in (self.owned.config() if self.owned is not None else {}).items():
             cfg[getattr(Config, name)] = value
         a.cfg.from_numpy(cfg)
@@ -402,10 +417,13 @@ class Model:
     def _run(self, stage: stages.Stage, times: dict | None) -> None:
         t0 = time.perf_counter() if times is not None else 0.0
         grouped = self.groups > 1 and stage.groups is not None  # groups > 1 only with islands off
-        if not self.islands and stage.islands_only and not grouped:
+        coloured = self.fx.coloured and stage.coloured is not None
+        if not self.islands and stage.islands_only and not grouped and not coloured:
             return
         parts, repeat = stage.parallel, self.scene.contacts.contact_passes if stage.per_pass else 1
-        if grouped:
+        if coloured:
+            parts = stage.coloured_device if self.device_parts and stage.coloured_device is not None else stage.coloured
+        elif grouped:
             parts = stage.groups
         elif not self.islands and stage.without_islands is not None:
             parts, repeat = stage.without_islands, 1  # the sequential pass loops its passes itself
@@ -426,8 +444,17 @@ class Model:
         if self._part_times is not None:
             ti.sync()
             t1 = time.perf_counter()
-        for _ in range(self.n if part.repeat else 1):
-            stages.run_part(self.fx, part, *self.arrays)
+        if part.recolour:
+            self._colours = None
+        launches = 1
+        if part.per_colour:  # read once per colouring: the one device read it costs
+            if self._colours is None:
+                self._colours = int(self.arrays.cnt[Counter.COLOURS])
+            launches = self._colours
+        limit = (part.limit or self.n * (self.scene.contacts.max_partners + 1)) if part.repeat else 1
+        for _ in range(limit if launches else 0):
+            for _ in range(launches):
+                stages.run_part(self.fx, part, *self.arrays)
             if part.repeat and int(self.arrays.cnt[Counter.CHANGED]) == 0:
                 break
         if self._part_times is not None:

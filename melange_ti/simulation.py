@@ -420,6 +420,7 @@ class Simulation:
                 "arch": runtime.arch_family(self.backend),
                 "taichi_arch": self.backend,
                 "precision": scene.precision,
+                "contact_order": model.order,
                 "seed": scene.time.seed,
             }
             if self.ckpt.exists():  # an earlier run's, which a resume of this one must not take; first,
@@ -435,7 +436,7 @@ class Simulation:
         self.writer = writer
         self.total_mass = float(model.constants()["mass"].sum())
         # the first launch compiles the kernels, or loads them from Taichi's offline cache
-        stamp = runtime.kernels_stamp(f"{','.join(scene.effects.names())}|{scene.precision}|{model.mode}")
+        stamp = runtime.kernels_stamp(f"{','.join(scene.effects.names())}|{scene.precision}|{model.mode}|{model.order}")
         self.compiled = stamp is None or not stamp.exists()
         what = "compiling kernels (cached for later runs)" if self.compiled else "loading kernels from the cache"
         bar = None

@@ -1,6 +1,6 @@
 """``python -m tests.device_forms ARCH OUT.npz``: a row of 16 icebergs whose neighbours
-approach each other, advanced in the parallel form with islands on and off, each form's
-final state and totals in OUT.npz (used by tests/test_device.py: Taichi runs one
+approach each other, advanced in the parallel form with islands on and off (the sequential
+order) and in the coloured order, each form's final state and totals in OUT.npz (used by tests/test_device.py: Taichi runs one
 backend per process)."""
 
 import sys
@@ -22,13 +22,15 @@ def main(arch: str, out: str) -> None:
     )
     text = '[scene]\neffects = ["gravity", "buoyancy", "drag", "collisions", "wall"]\n[time]\ndt = 0.01\nduration = 10.0\n'
     result = {}
-    for islands in (False, True):
-        m = Model(loads(text + bergs), mode="parallel", islands=islands)
+    forms = {"0": {"islands": False, "order": "sequential"}, "1": {"islands": True, "order": "sequential"}}
+    forms["c"] = {"order": "coloured"}
+    for tag, kw in forms.items():
+        m = Model(loads(text + bergs), mode="parallel", **kw)
         m.advance(150)
         for k, v in m.state().items():
-            result[f"{int(islands)}_{k}"] = v
+            result[f"{tag}_{k}"] = v
         t = m.totals()
-        result[f"{int(islands)}_totals"] = np.array([t.collision_dissipated, t.correction_work, t.impulse_sum, t.impulses])
+        result[f"{tag}_totals"] = np.array([t.collision_dissipated, t.correction_work, t.impulse_sum, t.impulses])
     np.savez(out, **result)
 
 

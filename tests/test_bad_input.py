@@ -66,6 +66,7 @@ CASES = [
     ("type-count-bool", scene_with({"shelf.count": True}), ["shelf.count", "true"]),
     ("type-restitution-list", scene_with({"physics.restitution": [0.5]}), ["physics.restitution", "0.5"]),
     ("type-precision-int", scene_with({"scene.precision": 64}), ["scene.precision", "64"]),
+    ("order-spelling", scene_with({"contacts.order": "colored"}), ["contacts.order", "colored", '"coloured"']),
     ("type-effects-string", scene_with({"scene.effects": "gravity"}), ["scene.effects", "gravity"]),
     ("type-section-scalar", "physics = 3\n" + dumps_toml({k: v for k, v in BASE.items() if k != "physics"}), ["physics", "3"]),
     # non-finite numbers

@@ -153,7 +153,9 @@ def _compare(cpu: Path, device: Path, tol: float) -> dict[str, float]:
 @pytest.fixture(scope="module")
 def device_runs(tmp_path_factory):
     """{(form, steps): folder}: the cases on the CPU, on Vulkan, and (hard cases) perturbed
-    on the CPU."""
+    on the CPU; every one with the device's default contact order, coloured (on the CPU
+    ``auto`` is sequential: :func:`test_parallel_form_with_and_without_islands_on_vulkan`
+    compares the device's sequential forms)."""
     runs = {}
     groups = [(100, list(SMOOTH), ("cpu", "vulkan"))] + [
         (steps, list(HARD), ("cpu", "vulkan", "perturbed")) for steps in HARD_STEPS
@@ -162,7 +164,7 @@ def device_runs(tmp_path_factory):
         for form in forms:
             kw = {"arch": "vulkan"} if form == "vulkan" else {"perturb": True} if form == "perturbed" else {}
             out = runs[(form, steps)] = tmp_path_factory.mktemp(f"{form}{steps}")
-            run_in_subprocesses(names, out, steps=steps, **kw)
+            run_in_subprocesses(names, out, steps=steps, order="coloured", **kw)
     return runs
 
 
@@ -211,11 +213,13 @@ def test_every_effect_on_vulkan_matches_the_cpu(tmp_path):
 
 
 def _run_on_cpu_and_vulkan(folder: Path, text: str) -> None:
-    """``melange-ti run`` of the scene ``text`` on each backend, into folder/ARCH.h5."""
+    """``melange-ti run`` of the scene ``text`` on each backend, into folder/ARCH.h5, both
+    with the device's default contact order (coloured)."""
     scene = folder / "scene.toml"
     scene.write_text(text)
     for arch in ("cpu", "vulkan"):
         cmd = [sys.executable, "-m", "melange_ti", "run", str(scene), "--arch", arch, "--out", str(folder / f"{arch}.h5")]
+        cmd += ["--set", "contacts.order=coloured"]
         subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=ROOT, timeout=900)
 
 
@@ -292,7 +296,7 @@ def test_start_from_a_snapshot_and_an_ensemble_on_vulkan(tmp_path):
     scene.write_text('[start]\nfile = "first.h5"\ntime = 4.0\n[time]\ndt = 0.02\nduration = 3.0\n')
     for arch in ("cpu", "vulkan"):
         cmd = [sys.executable, "-m", "melange_ti", "run", str(scene), "--arch", arch, "--out", str(tmp_path / f"{arch}.h5")]
-        subprocess.run(cmd, check=True, capture_output=True, cwd=ROOT, timeout=900)
+        subprocess.run([*cmd, "--set", "contacts.order=coloured"], check=True, capture_output=True, cwd=ROOT, timeout=900)
     _compare(tmp_path / "cpu.h5", tmp_path / "vulkan.h5", TOLERANCE["f64"])
     with h5py.File(first, "r") as a, h5py.File(tmp_path / "vulkan.h5", "r") as b:
         np.testing.assert_array_equal(a["snapshots/x"][-1], b["snapshots/x"][0])
@@ -312,15 +316,16 @@ def test_start_from_a_snapshot_and_an_ensemble_on_vulkan(tmp_path):
 @pytest.mark.gpu
 @needs_vulkan
 def test_parallel_form_with_and_without_islands_on_vulkan(tmp_path):
-    """The device's island-parallel form and its sequential-pass form (one device thread)
-    against the CPU's, on a row whose neighbours collide; and the device's twice, equal bit
-    for bit (nothing on it depends on thread timing)."""
+    """The device's island-parallel form, its sequential-pass form (one device thread) and
+    its coloured passes against the CPU's, on a row whose neighbours collide; and the
+    device's twice, equal bit for bit (nothing on it depends on thread timing)."""
     got = {}
     for name, arch in (("cpu", "cpu"), ("vulkan", "vulkan"), ("again", "vulkan")):
         out = tmp_path / f"{name}.npz"
         subprocess.run([sys.executable, "-m", "tests.device_forms", arch, str(out)], check=True, cwd=ROOT, timeout=900)
         got[name] = dict(np.load(out))
     assert got["cpu"]["1_totals"][3] > 10  # impulses: the contact path ran (every neighbour pair meets)
+    assert got["cpu"]["c_totals"][3] > 10
     for key, x in got["cpu"].items():
         y = got["vulkan"][key]
         assert np.max(np.abs(x - y)) <= TOLERANCE["f64"] * max(np.max(np.abs(x)), SCALE_FLOOR), key
@@ -361,6 +366,7 @@ def test_bonds_on_vulkan_within_the_models_own_rounding_sensitivity(tmp_path, pr
     state = ("snapshots/x", "snapshots/z", "snapshots/theta", "snapshots/vx", "snapshots/vz", "snapshots/omega")
     for name, doc in (("slab", slab), ("struck", tomllib.loads(struck_row(duration=1.5)))):
         doc["scene"]["precision"] = precision
+        doc["contacts"] = {**doc.get("contacts", {}), "order": "coloured"}  # the device's default, on both
         up = [{**b, "x": float(np.nextafter(real(b["x"]), real(np.inf)))} for b in doc["iceberg"]]
         for form, arch, d in (("cpu", "cpu", doc), ("vulkan", "vulkan", doc), ("ulp", "cpu", {**doc, "iceberg": up})):
             (tmp_path / f"{name}_{form}.toml").write_text(dumps_toml(d))

@@ -19,6 +19,7 @@ DENSITY_RATIO = 0.8946
 # icebergs' stiffest hydrostatic oscillation (docs/model.md, Time stepping): real runs go
 # unstable from 0.37 of it (a lone undamped capsize), the paper scene from 0.62.
 DT_SAFETY = 0.3
+ORDERS = ("auto", "sequential", "coloured")  # contacts.order
 
 SCENE = (
     Key("name", "scene", "", "a name for the run; it starts the default output file's name (docs/scenes.md, Output name)"),
@@ -71,6 +72,19 @@ CONTACTS = (
         "must be a multiple of 4 and at least 8",
     ),
     Key("contact_passes", 1, "1", "Gauss-Seidel repetitions of the impulse pass per step", lambda v: v >= 1, "must be >= 1"),
+    Key(
+        "order",
+        "auto",
+        "",
+        "the order of the impulse pass and the overlap correction: `sequential` (body by body, in index order) or "
+        "`coloured` (the contacts coloured so that no two of a colour share an iceberg, a colour's contacts side by "
+        "side, the colours in turn: every thread of a device or of many cores at work in a jammed melange); `auto`: "
+        "sequential on the CPU, coloured on a device. The two orders are different Gauss-Seidel sweeps of the same "
+        "contact law: their runs part ways as any two roundings do, with the same statistics (docs/performance.md, "
+        "Coloured passes); the run file's attribute `contact_order` says which ran",
+        lambda v: v in ORDERS,
+        'must be "auto", "sequential" or "coloured"',
+    ),
     Key(
         "max_partners",
         32,

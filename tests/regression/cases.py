@@ -118,10 +118,17 @@ def perturbed(doc: dict) -> dict:
 
 
 def run_cases(
-    names: list[str], outdir: Path, precision: str, arch: str = "cpu", steps: int | None = None, perturb: bool = False
+    names: list[str],
+    outdir: Path,
+    precision: str,
+    arch: str = "cpu",
+    steps: int | None = None,
+    perturb: bool = False,
+    order: str | None = None,
 ) -> None:
     """Run ``names`` (all of one precision) in this process into ``outdir/NAME.h5`` on
-    ``arch``, each cut to at most ``steps`` steps if given and :func:`perturbed` if asked."""
+    ``arch``, each cut to at most ``steps`` steps if given and :func:`perturbed` if asked,
+    its ``contacts.order`` set to ``order`` if given."""
     from melange_ti import runtime
     from melange_ti.scene import dumps_toml, loads
     from melange_ti.simulation import Simulation
@@ -129,7 +136,10 @@ def run_cases(
     runtime.init(arch, precision=precision)
     for name in names:
         doc, mode, _slow = CASES[name]
-        sc = loads(dumps_toml(shortened(perturbed(doc) if perturb else doc, steps)))
+        doc = perturbed(doc) if perturb else doc
+        if order is not None:
+            doc = {**doc, "contacts": {**doc.get("contacts", {}), "order": order}}
+        sc = loads(dumps_toml(shortened(doc, steps)))
         # on a device the model chooses its form (the parallel one); the CPU keeps the case's
         Simulation(sc, outdir / f"{name}.h5", overwrite=True, progress=False, mode=mode, arch=arch).run()
 
@@ -141,9 +151,11 @@ def run_in_subprocesses(
     arch: str = "cpu",
     steps: int | None = None,
     perturb: bool = False,
+    order: str | None = None,
 ) -> None:
     """Run the cases in fresh processes, one per precision (Taichi is initialised once per
-    process), on ``arch``, cut to ``steps`` steps if given, :func:`perturbed` if asked."""
+    process), on ``arch``, cut to ``steps`` steps if given, :func:`perturbed` if asked, with
+    ``contacts.order`` set to ``order`` if given."""
     by_precision: dict[str, list[str]] = {}
     for name in names:
         by_precision.setdefault(CASES[name][0]["scene"].get("precision", "f64"), []).append(name)
@@ -160,6 +172,7 @@ def run_in_subprocesses(
                 *("-m", "tests.regression.cases", "--run", str(outdir), "--precision", precision, "--arch", arch),
                 *(("--steps", str(steps)) if steps is not None else ()),
                 *(("--perturb",) if perturb else ()),
+                *(("--order", order) if order is not None else ()),
                 *group,
             ],
             check=True,
@@ -177,10 +190,11 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--arch", default="cpu")
     p.add_argument("--steps", type=int, default=None, help="(internal) cut each case to this many steps")
     p.add_argument("--perturb", action="store_true", help="(internal) move one initial value by one ulp")
+    p.add_argument("--order", default=None, help="(internal) the cases' contacts.order")
     p.add_argument("names", nargs="*")
     a = p.parse_args(argv)
     if a.run:
-        run_cases(a.names, Path(a.run), a.precision, a.arch, a.steps, a.perturb)
+        run_cases(a.names, Path(a.run), a.precision, a.arch, a.steps, a.perturb, a.order)
         return
     if a.record:
         names = a.names or [n for n, c in CASES.items() if a.slow or not c[2]]

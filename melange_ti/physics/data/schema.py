@@ -166,6 +166,9 @@ BODY_INTS = Table(
         ),
         Column("ISLAND_ORDER", "scratch", "1", "islands: bodies grouped by island, ascending within (indexed by position)"),
         Column("ISLAND_END", "scratch", "1", "device islands: one past the island's highest body (indexed by island number)"),
+        Column("COLOUR_TOP", "scratch", "1", "colouring: the highest priority of the body's uncoloured contacts this round"),
+        Column("COLOUR_USED", "scratch", "1", "colouring: the colours of every contact the body is in (bit k: colour k)"),
+        Column("COLOUR_OWN", "scratch", "1", "colouring: the colours of the contacts it keeps (wall, partners j > i)"),
     ),
     BodyInt,
 )
@@ -195,6 +198,8 @@ CONTACTS = Table(
             for e in REGISTRY
             for c in e.law_ledgers
         ),
+        # the contact's colour (forms/colours.py), allocated only when the passes are coloured
+        Column("COLOUR", "scratch", "1", "coloured passes: the contact's colour (-1: not yet coloured)", owner="coloured"),
     ),
     Contact,
 )
@@ -257,6 +262,7 @@ CONFIG = Table(
         Column("DISCS", "config", "1", "discs per iceberg"),
         Column("LISTS", "config", "1", "1 if the narrow phase keeps candidate lists"),
         Column("GROUPS", "config", "1", "parallel form without islands: contiguous groups the sequential passes split into"),
+        Column("ID_BITS", "config", "1", "coloured passes: bits of a contact's number, i (SLOTS + 1) + slot"),
         *(dataclasses.replace(c, owner=e.name) for e in REGISTRY for c in e.config),
     ),
     Config,
@@ -273,7 +279,14 @@ COUNTERS = Table(
         Column("OVERFLOW", "counter", "1", "1 if a body had more partners than slots"),
         Column("AGAIN", "counter", "1", "after an impulse pass: 2 detect again, 1 pass again, 0 done"),
         Column("ISLANDS", "counter", "1", "islands of the last detection (parallel form)"),
-        Column("CHANGED", "counter", "1", "device islands: 1 if the last labelling round changed a label"),
+        Column(
+            "CHANGED", "counter", "1", "device islands, colouring, coloured correction: 1 if the last round changed something"
+        ),
+        Column("COLOURS", "counter", "1", "coloured passes: colours of the last colouring (the overflow colour's included)"),
+        Column("COLOUR", "counter", "1", "coloured passes: the colour the next launch solves"),
+        Column("SLOTS_USED", "counter", "1", "colouring: the most contact slots a body uses (the device's flattened loop)"),
+        Column("SWEEP", "counter", "1", "coloured correction: the sweep under way"),
+        Column("PUSHES", "counter", "1", "coloured correction: pushes in the sweep under way"),
     ),
     Counter,
 )

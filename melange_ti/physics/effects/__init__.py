@@ -66,7 +66,7 @@ def _named(self) -> tuple[Effect, ...]:
 
 Effects = make_dataclass(
     "Effects",
-    [(n, bool, False) for n in NAMES],
+    [*((n, bool, False) for n in NAMES), ("coloured", bool, False)],
     frozen=True,
     namespace={
         "contacts": property(_contacts),
@@ -74,7 +74,8 @@ Effects = make_dataclass(
         "owns": property(lambda self: _owner(self) is not None),
         "named": property(_named),
         "names": _names,
-        "__doc__": "Which effects are compiled into the model.",
+        "__doc__": "Which effects are compiled into the model, and ``coloured``: the contact passes run colour by "
+        "colour (``contacts.order``, :mod:`..forms.colours`), not in body order.",
     },
 )
 Effects.__module__ = __name__

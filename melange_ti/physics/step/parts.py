@@ -23,12 +23,18 @@ def collisions(fx) -> bool:
 class Part:
     """One kernel of the parallel form: ``func(fx, a)``; ``sequential`` parts run on one
     thread (their order is the physics); ``needs(fx)``: launched only when true; ``repeat``:
-    launched again while it sets ``Counter.CHANGED``."""
+    launched again while it sets ``Counter.CHANGED`` (at most ``limit`` times; 0: once per
+    possible contact); ``per_colour``: launched once per colour of the last colouring
+    (``Counter.COLOURS``, :mod:`..forms.colours`), a repeat being all of them; ``recolour``:
+    it starts a colouring (the model reads the colours' count again after it)."""
 
     func: Callable
     sequential: bool = False
     needs: Callable = always
     repeat: bool = False
+    limit: int = 0
+    per_colour: bool = False
+    recolour: bool = False
 
 
 @dataclass(frozen=True)
@@ -41,7 +47,10 @@ class Stage:
     passes split into G contiguous groups, :mod:`..forms.groups`) it runs ``groups`` where given
     (``per_pass`` as ``parallel``), the islands stage included. On a device (``Model(device_parts=True)``) it runs
     ``device`` instead of ``parallel``, where given: no part on one thread but a walk over
-    block sums (:mod:`..forms.device`). ``owner``: the effect that added it to the step."""
+    block sums (:mod:`..forms.device`). With coloured passes (``contacts.order``, the effect
+    set's ``coloured``) it runs ``coloured`` (on a device ``coloured_device``, where given)
+    in the parallel form and ``coloured_serial`` in the serial one, where given, whatever the
+    islands and groups (:mod:`..forms.colours`). ``owner``: the effect that added it to the step."""
 
     name: str
     serial: Callable
@@ -53,6 +62,9 @@ class Stage:
     islands_only: bool = False
     device: tuple[Part, ...] | None = None
     groups: tuple[Part, ...] | None = None
+    coloured: tuple[Part, ...] | None = None
+    coloured_device: tuple[Part, ...] | None = None
+    coloured_serial: Callable | None = None
     owner: str | None = None  # the effect whose stage it is (None: the model's own)
 
 

@@ -37,7 +37,7 @@ import taichi as ti
 
 from ..data.schema import ACCUMULATORS, BODIES, COUNTERS, Arrays, Counter, allocated
 from ..effects import REGISTRY
-from ..forms import device, groups, islands
+from ..forms import colours, device, groups, islands
 from . import broad, correction, forces, impulses, narrow
 from .parts import Part, Rounds, Stage, always, collisions, contacts  # noqa: F401  (the step's vocabulary)
 
@@ -98,6 +98,9 @@ ISLANDS = Stage(
         Part(device.number_roots),
         Part(device.island_ends),
     ),
+    coloured=(Part(colours.colour_start, recolour=True), Part(colours.colour_round, repeat=True)),
+    coloured_device=(Part(colours.colour_start, recolour=True), Part(colours.colour_round_flat, repeat=True)),
+    coloured_serial=colours.colour_serial,
 )
 IMPULSES = Stage(
     "impulses",
@@ -107,6 +110,13 @@ IMPULSES = Stage(
     without_islands=(Part(impulses.impulse_pass, sequential=True),),
     groups=(Part(groups.impulse_groups), Part(groups.book_later, sequential=True)),
     device=(Part(device.impulse_spans), Part(device.impulse_sums), Part(device.impulse_total, sequential=True)),
+    coloured=(Part(colours.impulse_colour, per_colour=True), Part(impulses.book, sequential=True)),
+    coloured_device=(
+        Part(colours.impulse_colour, per_colour=True),
+        Part(device.impulse_sums),
+        Part(device.impulse_total, sequential=True),
+    ),
+    coloured_serial=colours.impulse_colours_serial,
 )
 CHECK = Stage("check", impulses.check, (Part(impulses.check),))
 DRIFT = Stage("drift", drift_stage, (Part(drift_stage),))
@@ -142,6 +152,22 @@ CORRECTION = Stage(
         Part(device.correction_sums),
         Part(device.correction_total, sequential=True),
     ),
+    coloured=(
+        Part(correction.prepare_all),
+        Part(colours.correct_first, sequential=True),
+        Part(colours.correct_colour, per_colour=True, repeat=True, limit=correction.MAX_CORRECT),
+        Part(correction.energy_all),
+        Part(correction.book, sequential=True),
+    ),
+    coloured_device=(
+        Part(correction.prepare_all),
+        Part(colours.correct_first, sequential=True),
+        Part(colours.correct_colour, per_colour=True, repeat=True, limit=correction.MAX_CORRECT),
+        Part(correction.energy_all),
+        Part(device.correction_sums),
+        Part(device.correction_total, sequential=True),
+    ),
+    coloured_serial=colours.correction_serial,
 )
 
 
@@ -184,21 +210,26 @@ STAGE_NAMES = tuple(s.name for s in STAGES)
 
 
 # ---------------------------------------------------------------- the serial form
+def serial_of(fx, stage: Stage):
+    """The stage's serial form for the effect set ``fx`` (its coloured one with coloured passes)."""
+    return stage.coloured_serial if fx.coloured and stage.coloured_serial is not None else stage.serial
+
+
 @ti.func
 def one_step(fx: ti.template(), a: ti.template()):
     """:data:`STEP` with serial loops (``Body.COS``, ``Body.SIN`` valid on entry)."""
     for part in ti.static(STEP):
         if ti.static(part.needs(fx)):
             if ti.static(part.kind == "stage"):
-                part.serial(fx, a)
+                ti.static(serial_of(fx, part))(fx, a)
             else:
                 redetect = 1
                 for _round in range(part.limit):
                     if redetect:
                         for st in ti.static(part.detect):
-                            st.serial(fx, a)
+                            ti.static(serial_of(fx, st))(fx, a)
                     for st in ti.static(part.solve):
-                        st.serial(fx, a)
+                        ti.static(serial_of(fx, st))(fx, a)
                     again = a.cnt[Counter.AGAIN]
                     redetect = ti.cast(again == 2, ti.i32)
                     if again == 0:

@@ -236,8 +236,7 @@ EFFECT = Effect(
             "BOND_CORRECTION",
             "ledger",
             E,
-            "minus the energy the overlap correction's pushes put into its bonds (half of each; 0 without the "
-            "bonds effect)",
+            "minus the energy the overlap correction's pushes put into its bonds (half of each; 0 without the bonds effect)",
             "bond_correction_work",
             budget=True,
             since=6,

@@ -7,7 +7,7 @@ import taichi as ti
 from ...data.schema import Body, Param
 from ...numerics import FAR
 from . import SUB, Wave
-from .grid import cells, quantize
+from .grid import cells
 
 
 @ti.func
@@ -82,41 +82,44 @@ def submerged(xc, zc, c, s, hw, hh, wl):
 
 
 @ti.func
-def area_left_of(px, pz, n, xe):
-    """Area of the convex polygon (px, pz, n corners) left of the line x = xe. Taken about
-    its first corner: the shoelace terms then stay the size of the iceberg, not of its
-    distance from the origin (in f32, at x ~ 500, the difference of two areas a step apart
-    would be rounding alone)."""
-    area = 0.0
+def edges(px, pz, n, wl):
+    """The edges of the convex polygon (px, pz, n corners, counter-clockwise) as
+    :func:`area_left_of` takes them: each edge k's x range [lo, hi], its height above the
+    still water line ``wl`` at lo, its slope dz/dx and its sign in the area (-1 running to
+    +x, +1 back); a vertical edge, or a slot past the n-th, has an empty range."""
+    lo = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    hi = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    z0 = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    slope = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    sign = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
     if n >= 3:
-        # clip each edge to x <= xe and sum the shoelace terms of the clipped polygon: the
-        # clipped boundary is the kept pieces plus pieces of the line x = xe
-        ox, oz = px[0], pz[0]
-        qx = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-        qz = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-        m = 0
-        for k in range(n):
-            ax, az = px[k] - ox, pz[k] - oz
-            k2 = k + 1
-            if k2 == n:
-                k2 = 0
-            bx, bz = px[k2] - ox, pz[k2] - oz
-            cut = xe - ox
-            if ax <= cut:
-                qx[m] = ax
-                qz[m] = az
-                m += 1
-            if (ax <= cut) != (bx <= cut):
-                f = (cut - ax) / (bx - ax)
-                qx[m] = cut
-                qz[m] = az + f * (bz - az)
-                m += 1
-        for k in range(m):
-            k2 = k + 1
-            if k2 == m:
-                k2 = 0
-            area += qx[k] * qz[k2] - qx[k2] * qz[k]
-        area *= 0.5
+        for k in ti.static(range(px.n)):
+            if k < n:
+                ax, az = px[k], pz[k]
+                bx, bz = px[0], pz[0]  # the next corner, the first after the last
+                if ti.static(k + 1 < px.n):
+                    if k + 1 < n:
+                        bx, bz = px[k + 1], pz[k + 1]
+                if ax != bx:
+                    slope[k] = (bz - az) / (bx - ax)
+                    if ax < bx:
+                        lo[k], hi[k], z0[k], sign[k] = ax, bx, az - wl, -1.0
+                    else:
+                        lo[k], hi[k], z0[k], sign[k] = bx, ax, bz - wl, 1.0
+    return lo, hi, z0, slope, sign
+
+
+@ti.func
+def area_left_of(lo, hi, z0, slope, sign, xe):
+    """Area of the polygon whose :func:`edges` these are left of the line x = xe: ``-int z
+    dx`` around its part left of xe, the edges clipped to x <= xe (the piece of the line x =
+    xe has no dx), each a linear z over its clipped range; heights from the water line, so
+    the terms stay the size of the iceberg, not of its distance from the origin. No branch
+    and no division per call: an iceberg's strips take it at every strip edge, twice."""
+    area = 0.0
+    for k in ti.static(range(lo.n)):
+        t = ti.min(ti.max(xe, lo[k]), hi[k]) - lo[k]
+        area += sign[k] * t * (z0[k] + 0.5 * slope[k] * t)
     return area
 
 
@@ -214,6 +217,7 @@ def deposit(a: ti.template(), i):
     hw, hh = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK]
     wl = a.par[Param.WATER]
     quantum = a.par[Param.WAVE_Q]
+    per_quantum = 1.0 / quantum  # exact (a power of 2): v * per_quantum is v / quantum, without a division per strip
     inv_dx = 1.0 / a.par[Param.WAVE_DX]
     x1, z1, c1, s1 = b[i, Body.X], b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN]
     x0, z0, c0, s0 = b[i, Body.START_X], b[i, Body.START_Z], b[i, Body.START_C], b[i, Body.START_S]
@@ -222,16 +226,19 @@ def deposit(a: ti.template(), i):
     lo, hi = strips(a, ti.min(x1 - e1, x0 - e0), ti.max(x1 + e1, x0 + e0))
     px1, pz1, n1 = submerged(x1, z1, c1, s1, hw, hh, wl)
     px0, pz0, n0 = submerged(x0, z0, c0, s0, hw, hh, wl)
-    left = area_left_of(px1, pz1, n1, edge_x(a, lo)) - area_left_of(px0, pz0, n0, edge_x(a, lo))
+    lo1, hi1, h1, sl1, sg1 = edges(px1, pz1, n1, wl)
+    lo0, hi0, h0, sl0, sg0 = edges(px0, pz0, n0, wl)
+    xa = edge_x(a, lo)
+    left = area_left_of(lo1, hi1, h1, sl1, sg1, xa) - area_left_of(lo0, hi0, h0, sl0, sg0, xa)
     for k in range(lo, hi + 1):
         xb = edge_x(a, k + 1)
-        right = area_left_of(px1, pz1, n1, xb) - area_left_of(px0, pz0, n0, xb)
+        right = area_left_of(lo1, hi1, h1, sl1, sg1, xb) - area_left_of(lo0, hi0, h0, sl0, sg0, xb)
         v = (right - left) * inv_dx
         left = right
         if v != 0:
             j0, j1, w1 = weights(a, k)
-            share1 = quantize(v * w1, quantum)
-            share0 = quantize(v * (1.0 - w1), quantum)
+            share1 = ti.floor(v * w1 * per_quantum + 0.5) * quantum
+            share0 = ti.floor(v * (1.0 - w1) * per_quantum + 0.5) * quantum
             if share0 != 0:
                 ti.atomic_add(wv[j0, Wave.SRC], share0)
             if share1 != 0:

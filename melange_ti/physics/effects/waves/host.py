@@ -12,13 +12,13 @@ from . import SPONGE_RATE, TABLE, Wave, cells_and_spacing
 
 class WaveGrid(State):
     """The wave grid of one model: ``cells`` (M) of spacing ``dx`` from the wall; its table
-    has ``2 M`` rows (the cosine transform's work)."""
+    has a row per cell (the cosine transform's work too)."""
 
     def __init__(self, scene, np_real):
         p = self.physics = scene.physics
         self.np_real = np_real
         self.cells, self.dx = cells_and_spacing(p.wall_x, p.wave_end, p.wave_dx)
-        self.rows = 2 * self.cells
+        self.rows = self.cells
 
     def params(self) -> dict[str, float]:
         # shares of displaced water are multiples of WAVE_Q: their sums stay exact below 8
@@ -26,7 +26,7 @@ class WaveGrid(State):
         return {"WAVE_DX": self.dx, "WAVE_Q": 2.0**-50 if self.np_real is np.float64 else 2.0**-22}
 
     def config(self) -> dict[str, int]:
-        return {"WAVE_CELLS": self.cells, "WAVE_LOG": (2 * self.cells).bit_length() - 1}
+        return {"WAVE_CELLS": self.cells, "WAVE_LOG": self.cells.bit_length() - 1}
 
     def x(self) -> np.ndarray:
         """x of the cell centres."""
@@ -43,18 +43,16 @@ class WaveGrid(State):
             rows[:m, Wave.SPONGE] = np.where(x > start, SPONGE_RATE * ((x - start) / p.wave_sponge) ** 2, 0.0)
         k = np.pi * np.arange(m) / (m * self.dx)
         rows[:m, Wave.KT] = k * np.tanh(k * p.water_depth) / m
-        # cosh(k (H - d)) / cosh(k H), written without overflow; mode 0 has half the
-        # weight of the others in the inverse cosine transform
+        # cosh(k (H - d)) / cosh(k H), written without overflow
         d, h = p.wave_pressure_depth, p.water_depth
         rows[:m, Wave.AT] = (np.exp(-k * d) + np.exp(-k * (2 * h - d))) / (1 + np.exp(-2 * k * h)) / m
-        rows[0, Wave.AT] *= 0.5
         rows[:m, Wave.CR] = np.cos(np.pi * np.arange(m) / (2 * m))
         rows[:m, Wave.CI] = np.sin(np.pi * np.arange(m) / (2 * m))
-        rows[:m, Wave.TWR] = np.cos(2 * np.pi * np.arange(m) / (2 * m))
-        rows[:m, Wave.TWI] = -np.sin(2 * np.pi * np.arange(m) / (2 * m))
-        bits = (2 * m).bit_length() - 1
-        q = np.arange(2 * m)
-        rows[: 2 * m, Wave.REV] = sum(((q >> b) & 1) << (bits - 1 - b) for b in range(bits))
+        rows[: m // 2, Wave.TWR] = np.cos(2 * np.pi * np.arange(m // 2) / m)
+        rows[: m // 2, Wave.TWI] = -np.sin(2 * np.pi * np.arange(m // 2) / m)
+        bits = m.bit_length() - 1
+        q = np.arange(m)
+        rows[:m, Wave.REV] = sum(((q >> b) & 1) << (bits - 1 - b) for b in range(bits))
         return rows.astype(self.np_real)
 
     def dims(self) -> dict[str, int]:
