@@ -44,8 +44,8 @@ import taichi as ti
 
 from ..data.schema import BodyInt, Config, Contact, Counter
 from ..step import correction
-from ..step.correction import MAX_CORRECT, push
-from ..step.impulses import book, contact, contact_range, resolve
+from ..step.correction import MAX_CORRECT, sweep_body
+from ..step.impulses import body_contacts, book, contact, contact_range
 
 MAX_COLOURS = 31  # colours with a bit in an i32 mask
 OVERFLOW = MAX_COLOURS  # the colour of contacts left over: solved on one thread
@@ -227,15 +227,8 @@ def colour_serial(fx: ti.template(), a: ti.template()):
 
 
 # ---------------------------------------------------------------- the impulse pass
-@ti.func
-def _impulses_of(fx: ti.template(), a: ti.template(), i, k):
-    first, last = contact_range(fx, a, i)
-    for s in range(first, last):
-        j, slot, px, pz, nx, nz, gap = contact(fx, a, i, s)
-        if colour_of(a, i, slot) == k:
-            resolve(fx, a, i, j, px, pz, nx, nz, gap, slot, True)
-
-
+# A coloured model's passes over a body's contacts take only the colour under way,
+# ``Counter.COLOUR`` (:func:`..step.impulses.in_pass`): the serial loops set it too.
 @ti.func
 def next_colour(a: ti.template(), k):
     """Advance ``Counter.COLOUR`` past ``k`` (back to 0 after the last)."""
@@ -252,12 +245,12 @@ def impulse_colour(fx: ti.template(), a: ti.template()):
     for i in range(a.b.shape[0]):
         k = ti.cast(a.cnt[Counter.COLOUR], ti.i32)
         if k < MAX_COLOURS and (a.bi[i, BodyInt.COLOUR_OWN] >> k) & 1:
-            _impulses_of(fx, a, i, k)
+            body_contacts(fx, a, i, True)
     for _ in range(1):
         k = ti.cast(a.cnt[Counter.COLOUR], ti.i32)
         if k == OVERFLOW:
             for i in range(a.b.shape[0]):
-                _impulses_of(fx, a, i, k)
+                body_contacts(fx, a, i, True)
         next_colour(a, k)
 
 
@@ -267,29 +260,13 @@ def impulse_colours_serial(fx: ti.template(), a: ti.template()):
     booked (the serial form of the parallel parts, the same bits)."""
     for _pass in range(ti.cast(a.cfg[Config.PASSES], ti.i32)):
         for k in range(ti.cast(a.cnt[Counter.COLOURS], ti.i32)):
+            a.cnt[Counter.COLOUR] = k
             for i in range(a.b.shape[0]):
-                _impulses_of(fx, a, i, k)
+                body_contacts(fx, a, i, True)
         book(fx, a)
 
 
 # ---------------------------------------------------------------- the overlap correction
-@ti.func
-def _pushes_of(fx: ti.template(), a: ti.template(), sweep, i, k):
-    """:func:`..step.correction.sweep_body` for body i's contacts of colour k."""
-    since = sweep - 1
-    pushed = 0
-    first, last = contact_range(fx, a, i)
-    for s in range(first, last):
-        j, slot, _px, _pz, nx, nz, g_end = contact(fx, a, i, s)
-        if colour_of(a, i, slot) == k:
-            moved = a.bi[i, BodyInt.PUSHED]
-            if j >= 0:
-                moved = ti.max(moved, a.bi[j, BodyInt.PUSHED])
-            if moved >= since:
-                pushed += push(fx, a, sweep, i, j, nx, nz, g_end, True)
-    return pushed
-
-
 @ti.func
 def correct_first(fx: ti.template(), a: ti.template()):
     """The sweeps start: sweep 0, colour 0, nothing pushed."""
@@ -307,7 +284,7 @@ def correct_colour(fx: ti.template(), a: ti.template()):
     for i in range(a.b.shape[0]):
         k = ti.cast(a.cnt[Counter.COLOUR], ti.i32)
         if k < MAX_COLOURS and (a.bi[i, BodyInt.COLOUR_OWN] >> k) & 1:
-            pushed = _pushes_of(fx, a, ti.cast(a.cnt[Counter.SWEEP], ti.i32), i, k)
+            pushed = sweep_body(fx, a, ti.cast(a.cnt[Counter.SWEEP], ti.i32), i, True)
             if pushed > 0:
                 ti.atomic_add(a.cnt[Counter.PUSHES], pushed)
     for _ in range(1):
@@ -315,7 +292,7 @@ def correct_colour(fx: ti.template(), a: ti.template()):
         sweep = ti.cast(a.cnt[Counter.SWEEP], ti.i32)
         if k == OVERFLOW:
             for i in range(a.b.shape[0]):
-                a.cnt[Counter.PUSHES] += _pushes_of(fx, a, sweep, i, k)
+                a.cnt[Counter.PUSHES] += sweep_body(fx, a, sweep, i, True)
         next_colour(a, k)
         if a.cnt[Counter.COLOUR] == 0:  # the sweep is done
             a.cnt[Counter.CHANGED] = ti.cast(a.cnt[Counter.PUSHES] > 0, ti.i64)
@@ -329,8 +306,9 @@ def sweeps_serial(fx: ti.template(), a: ti.template()):
     for sweep in range(MAX_CORRECT):
         pushed = 0
         for k in range(ti.cast(a.cnt[Counter.COLOURS], ti.i32)):
+            a.cnt[Counter.COLOUR] = k
             for i in range(a.b.shape[0]):
-                pushed += _pushes_of(fx, a, sweep, i, k)
+                pushed += sweep_body(fx, a, sweep, i, True)
         if pushed == 0:
             break
 

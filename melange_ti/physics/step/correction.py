@@ -15,7 +15,7 @@ from ..data.schema import Acc, Body, BodyInt, Contact, Param
 from ..numerics import TINY
 from . import wall
 from .forces import contact_mass, potential_energy
-from .impulses import contact, contact_range, normal_speed
+from .impulses import contact, contact_range, in_pass, normal_speed
 
 MAX_CORRECT = 4  # correction sweeps while some overlap is still being pushed apart
 
@@ -109,18 +109,20 @@ def prepare_body(fx: ti.template(), a: ti.template(), i, eager: ti.template()):
 @ti.func
 def sweep_body(fx: ti.template(), a: ti.template(), sweep, i, eager: ti.template()):
     """One sweep's pushes of body i's contacts (wall, then partners j > i ascending:
-    :func:`.impulses.contact_range`); after the first sweep only contacts of a body moved
-    in the previous one. Returns how many pushed."""
+    :func:`.impulses.contact_range`; coloured: those of the colour under way,
+    :func:`.impulses.in_pass`); after the first sweep only contacts of a body moved in the
+    previous one. Returns how many pushed."""
     since = sweep - 1
     pushed = 0
     first, last = contact_range(fx, a, i)
     for s in range(first, last):
-        j, _slot, _px, _pz, nx, nz, g_end = contact(fx, a, i, s)
-        moved = a.bi[i, BodyInt.PUSHED]
-        if j >= 0:
-            moved = ti.max(moved, a.bi[j, BodyInt.PUSHED])
-        if moved >= since:
-            pushed += push(fx, a, sweep, i, j, nx, nz, g_end, eager)
+        j, slot, _px, _pz, nx, nz, g_end = contact(fx, a, i, s)
+        if in_pass(fx, a, i, slot):
+            moved = a.bi[i, BodyInt.PUSHED]
+            if j >= 0:
+                moved = ti.max(moved, a.bi[j, BodyInt.PUSHED])
+            if moved >= since:
+                pushed += push(fx, a, sweep, i, j, nx, nz, g_end, eager)
     return pushed
 
 

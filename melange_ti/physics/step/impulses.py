@@ -174,13 +174,26 @@ def contact(fx: ti.template(), a: ti.template(), i, s):
 
 
 @ti.func
+def in_pass(fx: ti.template(), a: ti.template(), i, slot):
+    """Whether a pass over body i's contacts takes the contact at ``slot``: every one, or with
+    coloured passes (``fx.coloured``, :mod:`..forms.colours`) those of the colour under way,
+    ``Counter.COLOUR``."""
+    take = 1
+    if ti.static(fx.coloured):
+        take = ti.cast(ti.cast(a.cd[slot, i, Contact.COLOUR], ti.i32) == a.cnt[Counter.COLOUR], ti.i32)
+    return take
+
+
+@ti.func
 def body_contacts(fx: ti.template(), a: ti.template(), i, defer: ti.template()):
-    """Body i's contacts in the pass's order (:func:`contact_range`); deferred terms of the
-    wall contact go to slot ``Config.SLOTS``."""
+    """Body i's contacts in the pass's order (:func:`contact_range`; coloured: those of the
+    colour under way, :func:`in_pass`); deferred terms of the wall contact go to slot
+    ``Config.SLOTS``."""
     first, last = contact_range(fx, a, i)
     for s in range(first, last):
         j, slot, px, pz, nx, nz, gap = contact(fx, a, i, s)
-        resolve(fx, a, i, j, px, pz, nx, nz, gap, slot, defer)
+        if in_pass(fx, a, i, slot):
+            resolve(fx, a, i, j, px, pz, nx, nz, gap, slot, defer)
 
 
 @ti.func

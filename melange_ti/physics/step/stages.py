@@ -120,6 +120,14 @@ IMPULSES = Stage(
 )
 CHECK = Stage("check", impulses.check, (Part(impulses.check),))
 DRIFT = Stage("drift", drift_stage, (Part(drift_stage),))
+# the coloured correction's parts before its energy is summed (on the CPU in body order, on
+# a device in blocks)
+COLOURED_SWEEPS = (
+    Part(correction.prepare_all),
+    Part(colours.correct_first, sequential=True),
+    Part(colours.correct_colour, per_colour=True, repeat=True, limit=correction.MAX_CORRECT),
+    Part(correction.energy_all),
+)
 # the correction's parts: prepare each body and its contacts' gaps (parallel), the sweeps
 # (per island in parallel, or all bodies in one sequential loop), each moved body's change
 # of potential energy (parallel), their sum in body order (sequential)
@@ -152,21 +160,8 @@ CORRECTION = Stage(
         Part(device.correction_sums),
         Part(device.correction_total, sequential=True),
     ),
-    coloured=(
-        Part(correction.prepare_all),
-        Part(colours.correct_first, sequential=True),
-        Part(colours.correct_colour, per_colour=True, repeat=True, limit=correction.MAX_CORRECT),
-        Part(correction.energy_all),
-        Part(correction.book, sequential=True),
-    ),
-    coloured_device=(
-        Part(correction.prepare_all),
-        Part(colours.correct_first, sequential=True),
-        Part(colours.correct_colour, per_colour=True, repeat=True, limit=correction.MAX_CORRECT),
-        Part(correction.energy_all),
-        Part(device.correction_sums),
-        Part(device.correction_total, sequential=True),
-    ),
+    coloured=(*COLOURED_SWEEPS, Part(correction.book, sequential=True)),
+    coloured_device=(*COLOURED_SWEEPS, Part(device.correction_sums), Part(device.correction_total, sequential=True)),
     coloured_serial=colours.correction_serial,
 )
 

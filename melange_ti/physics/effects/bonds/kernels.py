@@ -16,6 +16,31 @@ from . import MAX_BONDS, Bond
 
 
 @ti.func
+def points(a: ti.template(), r):
+    """Bond r's bodies and geometry now: ``(i, j, rax, raz, nx, nz, rbx, rbz, pbx, pbz)``, A's
+    arm and the bond's normal in the world frame, B's arm and point (the wall, j < 0: its
+    fixed point, no arm)."""
+    own = ti.static(a.own)
+    b = ti.static(a.b)
+    i = ti.cast(own[r, Bond.A], ti.i32)
+    j = ti.cast(own[r, Bond.B], ti.i32)
+    ca, sa = b[i, Body.COS], b[i, Body.SIN]
+    rax = ca * own[r, Bond.UA] - sa * own[r, Bond.VA]
+    raz = sa * own[r, Bond.UA] + ca * own[r, Bond.VA]
+    nx = ca * own[r, Bond.NU] - sa * own[r, Bond.NV]
+    nz = sa * own[r, Bond.NU] + ca * own[r, Bond.NV]
+    rbx, rbz = 0.0, 0.0
+    pbx, pbz = own[r, Bond.UB], own[r, Bond.VB]
+    if j >= 0:
+        cb, sb = b[j, Body.COS], b[j, Body.SIN]
+        rbx = cb * own[r, Bond.UB] - sb * own[r, Bond.VB]
+        rbz = sb * own[r, Bond.UB] + cb * own[r, Bond.VB]
+        pbx = b[j, Body.X] + rbx
+        pbz = b[j, Body.Z] + rbz
+    return i, j, rax, raz, nx, nz, rbx, rbz, pbx, pbz
+
+
+@ti.func
 def update(a: ti.template(), r):
     """Bond ``r`` at the step's start: breaks it if its stress exceeds its strength (booking
     the energy it held in ``REL``), else sets its elastic and dashpot forces."""
@@ -25,24 +50,11 @@ def update(a: ti.template(), r):
     gx, gz, ta, tb = 0.0, 0.0, 0.0, 0.0
     dxf, dzf, da, db = 0.0, 0.0, 0.0, 0.0
     if own[r, Bond.INTACT] > 0.5:
-        i = ti.cast(own[r, Bond.A], ti.i32)
-        j = ti.cast(own[r, Bond.B], ti.i32)
-        ca, sa = b[i, Body.COS], b[i, Body.SIN]
-        rax = ca * own[r, Bond.UA] - sa * own[r, Bond.VA]
-        raz = sa * own[r, Bond.UA] + ca * own[r, Bond.VA]
-        nx = ca * own[r, Bond.NU] - sa * own[r, Bond.NV]
-        nz = sa * own[r, Bond.NU] + ca * own[r, Bond.NV]
+        i, j, rax, raz, nx, nz, rbx, rbz, pbx, pbz = points(a, r)
         sx, sz = -nz, nx
-        # B's point, velocity and tilt (the wall: a fixed point, at rest, untilted)
-        rbx, rbz = 0.0, 0.0
-        pbx, pbz = own[r, Bond.UB], own[r, Bond.VB]
+        # B's velocity and tilt (the wall: at rest, untilted)
         vbx, vbz, omb, thb = 0.0, 0.0, 0.0, 0.0
         if j >= 0:
-            cb, sb = b[j, Body.COS], b[j, Body.SIN]
-            rbx = cb * own[r, Bond.UB] - sb * own[r, Bond.VB]
-            rbz = sb * own[r, Bond.UB] + cb * own[r, Bond.VB]
-            pbx = b[j, Body.X] + rbx
-            pbz = b[j, Body.Z] + rbz
             omb = b[j, Body.OM]
             vbx = b[j, Body.VX] - omb * rbz
             vbz = b[j, Body.VZ] + omb * rbx
@@ -191,22 +203,9 @@ def held_energy(a: ti.template(), r):
     b = ti.static(a.b)
     out = 0.0
     if own[r, Bond.INTACT] > 0.5:
-        i = ti.cast(own[r, Bond.A], ti.i32)
-        j = ti.cast(own[r, Bond.B], ti.i32)
-        ca, sa = b[i, Body.COS], b[i, Body.SIN]
-        rax = ca * own[r, Bond.UA] - sa * own[r, Bond.VA]
-        raz = sa * own[r, Bond.UA] + ca * own[r, Bond.VA]
-        nx = ca * own[r, Bond.NU] - sa * own[r, Bond.NV]
-        nz = sa * own[r, Bond.NU] + ca * own[r, Bond.NV]
-        rbx, rbz = 0.0, 0.0
-        pbx, pbz = own[r, Bond.UB], own[r, Bond.VB]
+        i, j, rax, raz, nx, nz, rbx, rbz, pbx, pbz = points(a, r)
         vbx, vbz, omb, thb = 0.0, 0.0, 0.0, 0.0
         if j >= 0:
-            cb, sb = b[j, Body.COS], b[j, Body.SIN]
-            rbx = cb * own[r, Bond.UB] - sb * own[r, Bond.VB]
-            rbz = sb * own[r, Bond.UB] + cb * own[r, Bond.VB]
-            pbx = b[j, Body.X] + rbx
-            pbz = b[j, Body.Z] + rbz
             vbx, vbz, omb, thb = b[j, Body.VX], b[j, Body.VZ], b[j, Body.OM], b[j, Body.TH]
         dx = pbx - (b[i, Body.X] + rax)
         dz = pbz - (b[i, Body.Z] + raz)
