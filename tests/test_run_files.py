@@ -117,25 +117,34 @@ def test_every_diagnostic_is_written_and_none_claims_a_future_format(tmp_path):
 
 
 def test_plot_reads_files_older_than_each_diagnostic(tmp_path):
-    """A file of the format before a diagnostic appeared lacks it and still plots; a file of
+    """A file of each older format (lacking every diagnostic that appeared after it) still
+    plots; a file of the format before a diagnostic appeared reads without it, and a file of
     the current format that lacks it is refused in one line."""
     import shutil
 
     from melange_ti import diagnostics
+    from melange_ti.analysis.runs import load_run
 
     run = _run(scene.dumps_toml({**SECTIONS, "shelf": SHELF}), tmp_path, "a")
     newer = [f for f in diagnostics.FIELDS if f.since > 1]
     assert {"impulse_offset_work", "contacts"} <= {f.name for f in newer}
+    for version in sorted({f.since - 1 for f in newer}):
+        old = tmp_path / f"format_{version}.h5"
+        shutil.copy(run, old)
+        with h5py.File(old, "r+") as h:
+            for f in newer:
+                if f.since > version:
+                    del h["diagnostics"][f.name]
+            h.attrs["format_version"] = version
+        assert cli.main(["plot", str(old), "--out", str(tmp_path / f"figures_{version}")]) == 0, version
     for f in newer:
         old = tmp_path / f"without_{f.name}.h5"
         shutil.copy(run, old)
         with h5py.File(old, "r+") as h:
             del h["diagnostics"][f.name]
             h.attrs["format_version"] = f.since - 1
-        assert cli.main(["plot", str(old), "--out", str(tmp_path / f"figures_{f.name}")]) == 0, f.name
+        assert f.name not in load_run(old).data["diagnostics"], f.name
         with h5py.File(old, "r+") as h:
             h.attrs["format_version"] = f.since
         with pytest.raises(Exception, match=f"missing {f.name}"):
-            from melange_ti.analysis.runs import load_run
-
             load_run(old)

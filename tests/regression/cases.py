@@ -94,15 +94,15 @@ def dataset_hashes(path: str | Path) -> dict[str, str]:
     return out
 
 
-def shortened(doc: dict, steps: int | None) -> dict:
-    """``doc`` ending after at most ``steps`` steps (outputs at least every 50 steps)."""
+def shortened(doc: dict, steps: int | None, every: int = 50) -> dict:
+    """``doc`` ending after at most ``steps`` steps (outputs at least every ``every`` steps)."""
     if steps is None:
         return doc
     doc = {**doc, "time": dict(doc["time"]), "output": dict(doc["output"])}
     dt = doc["time"].get("dt", 0.01)
     doc["time"]["duration"] = min(doc["time"]["duration"], steps * dt)
     for key in ("snapshot_interval", "diagnostic_interval"):
-        doc["output"][key] = min(doc["output"][key], 50 * dt)
+        doc["output"][key] = min(doc["output"][key], every * dt)
     return doc
 
 
@@ -125,10 +125,11 @@ def run_cases(
     steps: int | None = None,
     perturb: bool = False,
     order: str | None = None,
+    every: int = 50,
 ) -> None:
     """Run ``names`` (all of one precision) in this process into ``outdir/NAME.h5`` on
-    ``arch``, each cut to at most ``steps`` steps if given and :func:`perturbed` if asked,
-    its ``contacts.order`` set to ``order`` if given."""
+    ``arch``, each cut to at most ``steps`` steps if given (outputs at least every ``every``
+    steps) and :func:`perturbed` if asked, its ``contacts.order`` set to ``order`` if given."""
     from melange_ti import runtime
     from melange_ti.scene import dumps_toml, loads
     from melange_ti.simulation import Simulation
@@ -139,7 +140,7 @@ def run_cases(
         doc = perturbed(doc) if perturb else doc
         if order is not None:
             doc = {**doc, "contacts": {**doc.get("contacts", {}), "order": order}}
-        sc = loads(dumps_toml(shortened(doc, steps)))
+        sc = loads(dumps_toml(shortened(doc, steps, every)))
         # on a device the model chooses its form (the parallel one); the CPU keeps the case's
         Simulation(sc, outdir / f"{name}.h5", overwrite=True, progress=False, mode=mode, arch=arch).run()
 
@@ -152,10 +153,11 @@ def run_in_subprocesses(
     steps: int | None = None,
     perturb: bool = False,
     order: str | None = None,
+    every: int = 50,
 ) -> None:
     """Run the cases in fresh processes, one per precision (Taichi is initialised once per
-    process), on ``arch``, cut to ``steps`` steps if given, :func:`perturbed` if asked, with
-    ``contacts.order`` set to ``order`` if given."""
+    process), on ``arch``, cut to ``steps`` steps if given (outputs at least every ``every``
+    steps), :func:`perturbed` if asked, with ``contacts.order`` set to ``order`` if given."""
     by_precision: dict[str, list[str]] = {}
     for name in names:
         by_precision.setdefault(CASES[name][0]["scene"].get("precision", "f64"), []).append(name)
@@ -170,7 +172,7 @@ def run_in_subprocesses(
             [
                 sys.executable,
                 *("-m", "tests.regression.cases", "--run", str(outdir), "--precision", precision, "--arch", arch),
-                *(("--steps", str(steps)) if steps is not None else ()),
+                *(("--steps", str(steps), "--every", str(every)) if steps is not None else ()),
                 *(("--perturb",) if perturb else ()),
                 *(("--order", order) if order is not None else ()),
                 *group,
@@ -189,12 +191,13 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--precision", default="f64")
     p.add_argument("--arch", default="cpu")
     p.add_argument("--steps", type=int, default=None, help="(internal) cut each case to this many steps")
+    p.add_argument("--every", type=int, default=50, help="(internal) with --steps: outputs at least this often")
     p.add_argument("--perturb", action="store_true", help="(internal) move one initial value by one ulp")
     p.add_argument("--order", default=None, help="(internal) the cases' contacts.order")
     p.add_argument("names", nargs="*")
     a = p.parse_args(argv)
     if a.run:
-        run_cases(a.names, Path(a.run), a.precision, a.arch, a.steps, a.perturb, a.order)
+        run_cases(a.names, Path(a.run), a.precision, a.arch, a.steps, a.perturb, a.order, a.every)
         return
     if a.record:
         names = a.names or [n for n, c in CASES.items() if a.slow or not c[2]]
