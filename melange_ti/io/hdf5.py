@@ -395,6 +395,17 @@ def read_run(path: str | Path) -> dict:
     return out
 
 
+def read_group(path: str | Path, group: str) -> tuple[dict, np.ndarray] | None:
+    """One group an effect declares (:data:`DATASETS`, written once) as ``{name: values}``,
+    with the snapshots' times (to their consistent length); ``None`` if the file has no
+    such group. One-line :class:`OutputError` for a file that is not a readable run."""
+    with _reading(path) as f:
+        if group not in f:
+            return None
+        snaps = f["snapshots"]
+        return {k: ds[:] for k, ds in f[group].items()}, snaps["time"][: consistent_length(snaps)]
+
+
 def _plain(v):
     if isinstance(v, bytes):
         return v.decode()

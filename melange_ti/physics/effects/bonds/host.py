@@ -315,13 +315,13 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
 
 
 def _read_start(path: str):
-    import h5py
+    from ....io.hdf5 import read_group
 
-    with h5py.File(path, "r", locking=False) as f:
-        if "bonds" not in f:
-            return None
-        g = f["bonds"]
-        return {k: g[k][...] for k in ("rest", "break_time")} | {"times": f["snapshots/time"][...]}
+    got = read_group(path, "bonds")
+    if got is None:
+        return None
+    group, times = got
+    return {k: group[k] for k in ("rest", "break_time")} | {"times": times}
 
 
 def _start_table(scene, bergs) -> np.ndarray:
