@@ -147,3 +147,92 @@ def coulomb_impulse(k: np.ndarray, vn: float, vt: float, e: float, mu: float) ->
     side = float(np.sign(jt))
     jn = -(1.0 + e) * vn / (k[0, 0] + side * mu * k[0, 1])
     return float(jn), float(side * mu * jn), "slide"
+
+
+# ---------------------------------------------------------------- floating stability, in numpy
+# A polygon floating freely: at each orientation it sits at the water line that leaves the
+# share ``r`` of it submerged; its potential energy there is ``-rho g r A z_B``, ``z_B`` the
+# submerged part's centroid above the centre of mass. Written again here (Sutherland-Hodgman
+# clipping), independently of the model's edge-by-edge hydrostatics and of ``geometry``.
+def rectangle(width: float, thickness: float) -> np.ndarray:
+    """A rectangle's corners about its centre, counter-clockwise (4, 2)."""
+    w, h = 0.5 * width, 0.5 * thickness
+    return np.array([[w, -h], [w, h], [-w, h], [-w, -h]])
+
+
+def rotated(poly: np.ndarray, theta: float) -> np.ndarray:
+    c, s = np.cos(theta), np.sin(theta)
+    return poly @ np.array([[c, s], [-s, c]])
+
+
+def below(poly: np.ndarray, level: float) -> np.ndarray:
+    """The part of the convex polygon ``poly`` below z = ``level`` (Sutherland-Hodgman)."""
+    out = []
+    n = len(poly)
+    for k in range(n):
+        p, q = poly[k], poly[(k + 1) % n]
+        if p[1] <= level:
+            out.append(p)
+        if (p[1] < level) != (q[1] < level):
+            out.append(p + (level - p[1]) / (q[1] - p[1]) * (q - p))
+    return np.array(out)
+
+
+def area_centroid(poly: np.ndarray) -> tuple[float, float, float]:
+    """Area and centroid (x, z) of a counter-clockwise polygon (0 for fewer than 3 corners)."""
+    if len(poly) < 3:
+        return 0.0, 0.0, 0.0
+    x, z = poly[:, 0], poly[:, 1]
+    x1, z1 = np.roll(x, -1), np.roll(z, -1)
+    cr = x * z1 - x1 * z
+    a = cr.sum() / 2
+    return float(a), float((cr * (x + x1)).sum() / (6 * a)), float((cr * (z + z1)).sum() / (6 * a))
+
+
+def floating(poly: np.ndarray, r: float, theta: float) -> tuple[float, float, float]:
+    """``(U / (rho g), z_G, x_B)`` of ``poly`` (about its centre of mass) turned by ``theta``
+    and floating at the draft that submerges the share ``r`` of it, the water line at z = 0;
+    ``x_B``: the submerged part's centroid from the centre of mass (0 at an equilibrium)."""
+    p = rotated(poly, theta)
+    total = area_centroid(p)[0]
+    lo, hi = float(p[:, 1].min()), float(p[:, 1].max())
+    for _ in range(64):  # bisection of the water line (to 2^-64 of the height)
+        mid = 0.5 * (lo + hi)
+        if area_centroid(below(p, mid))[0] < r * total:
+            lo = mid
+        else:
+            hi = mid
+    level = 0.5 * (lo + hi)
+    a, xb, zb = area_centroid(below(p, level))
+    return -a * zb, -level, xb
+
+
+def floating_minimum(poly: np.ndarray, r: float, period: float = 2 * np.pi, grid: int = 1440) -> tuple[float, float]:
+    """The global minimum of the floating potential over every orientation (``period``: the
+    shape's rotational symmetry): ``(theta, z_G)``, from a sweep of ``grid`` angles refined
+    by golden section, then (U being flat there) by bisection of the torque's root, ``x_B =
+    0``, where it changes sign next to the minimum."""
+    angles = np.linspace(0.0, period, grid, endpoint=False)
+    u = [floating(poly, r, t)[0] for t in angles]
+    k = int(np.argmin(u))
+    a, b = angles[k] - period / grid, angles[k] + period / grid
+    g = (np.sqrt(5.0) - 1.0) / 2.0
+    for _ in range(80):
+        c, d = b - g * (b - a), a + g * (b - a)
+        if floating(poly, r, c)[0] < floating(poly, r, d)[0]:
+            b = d
+        else:
+            a = c
+    theta = 0.5 * (a + b)
+    lo, hi = theta - 1e-5, theta + 1e-5
+    f_lo = floating(poly, r, lo)[2]
+    if f_lo * floating(poly, r, hi)[2] < 0:
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            f_mid = floating(poly, r, mid)[2]
+            if f_mid * f_lo > 0:
+                lo, f_lo = mid, f_mid
+            else:
+                hi = mid
+        theta = 0.5 * (lo + hi)
+    return float(theta), floating(poly, r, theta)[1]

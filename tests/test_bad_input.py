@@ -78,6 +78,8 @@ CASES = [
     # sizes
     ("width-zero", scene_with({"shelf.width": 0.0}), ["shelf.width", "0"]),
     ("thickness-negative", scene_with({"shelf.thickness": -1.4}), ["shelf.thickness", "-1.4"]),
+    ("width-spread-negative", scene_with({"shelf.width_std": -0.1}), ["shelf.width_std", "-0.1"]),
+    ("width-spread-too-wide", scene_with({"shelf.width_std": 5.0}), ["shelf.width_std", "5", "5% of shelf.width"]),
     ("iceberg-width-zero", scene_with(bergs=[BERGS[0], {**BERGS[1], "width": 0.0}]), ["iceberg[1].width", "0"]),
     ("iceberg-thickness-negative", scene_with(bergs=[{**BERGS[0], "thickness": -0.5}]), ["iceberg[0].thickness", "-0.5"]),
     # physics ranges

@@ -57,7 +57,7 @@ KNOWN_KEYS = {
     "contacts": ["discs", "contact_passes", "max_partners"],
     "time": ["dt", "duration", "seed"],
     "output": ["snapshot_interval", "diagnostic_interval", "checkpoint_interval"],
-    "shelf": ["count", "width", "thickness", "gap", "tilt", "thickness_std"],
+    "shelf": ["count", "width", "thickness", "gap", "tilt", "thickness_std", "width_std"],
     "iceberg": ["x", "z", "theta", "vx", "vz", "omega", "width", "thickness"],
 }
 

@@ -57,8 +57,10 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
     """The paper's initial state: a row from the wall, upright, floating, slightly tilted.
 
     Random numbers are drawn on the host from ``numpy.random.default_rng(seed)``: first the
-    tilts, then (only when ``thickness_std > 0``) the thicknesses, so a spread never changes
-    the tilts of a scene.
+    tilts, then (only when ``thickness_std > 0``) the thicknesses, then (only when
+    ``width_std > 0``) the widths, so a spread never changes what was drawn before it. With
+    spread widths each iceberg keeps ``gap`` to its neighbours (none within an intact
+    shelf), as equal ones do.
     """
     rng = np.random.default_rng(seed)
     n = shelf.count
@@ -71,7 +73,15 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
                 "shelf.thickness_std", shelf.thickness_std, "draws thicknesses <= 5% of shelf.thickness; use a smaller spread"
             )
     width = np.full(n, shelf.width)
+    if shelf.width_std > 0:
+        width = rng.normal(shelf.width, shelf.width_std, n)
+        if np.any(width <= 0.05 * shelf.width):
+            raise error("shelf.width_std", shelf.width_std, "draws widths <= 5% of shelf.width; use a smaller spread")
+    # the left face of each iceberg: the widths before it and the gaps up to it
+    before = np.concatenate([[0.0], np.cumsum(width[:-1])])
     x = physics.wall_x + shelf.gap + 0.5 * shelf.width + np.arange(n) * (shelf.width + shelf.gap)
+    if shelf.width_std > 0:
+        x = physics.wall_x + shelf.gap + before + np.arange(n) * shelf.gap + 0.5 * width
     if shelf.bonded:
         # an intact shelf: no gaps (none at the wall either when bonded to it), upright; the
         # seaward ``front`` icebergs free, ``gap`` apart, with their tilts
@@ -79,6 +89,8 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
         start = physics.wall_x + (0.0 if shelf.bonded_wall else shelf.gap)
         steps = np.where(np.arange(n) < last, 0.0, shelf.gap)
         x = start + 0.5 * shelf.width + np.arange(n) * shelf.width + np.cumsum(steps)
+        if shelf.width_std > 0:
+            x = start + before + np.cumsum(steps) + 0.5 * width
         theta = np.where(np.arange(n) < last, 0.0, theta)
     z = equilibrium_z(thickness, physics.density_ratio, physics.water_level)
     zeros = np.zeros(n)
@@ -124,6 +136,9 @@ def _shelf_advice(scene: Scene, b: Icebergs, r: np.ndarray, wall: bool) -> str:
     sh = scene.shelf
     ext = _extent(sh.width, float(b.thickness.max()), float(r.max()), sh.tilt)
     need = ext - 0.5 * sh.width if wall else 2.0 * ext - sh.width
+    if sh.width_std > 0:  # each iceberg's reach beyond its faces, from its own width: room at the wall and between all
+        out = np.array([_extent(w, float(b.thickness.max()), float(r.max()), sh.tilt) - 0.5 * w for w in b.width])
+        need = float(max(out[0], np.max(out[1:] + out[:-1], initial=0.0)))
     return f"use shelf.gap >= {math.ceil(need * 1e4) / 1e4:g} (room for any tilt up to shelf.tilt) or a smaller shelf.tilt"
 
 

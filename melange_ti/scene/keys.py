@@ -162,7 +162,7 @@ OUTPUT = (
 
 SHELF = (
     Key("count", 400, "1", "icebergs in the row", lambda v: 1 <= v <= 10_000_000, "must be in [1, 10000000]"),
-    Key("width", 1.0, "w", "width of every iceberg", lambda v: v > 0.0, "must be > 0"),
+    Key("width", 1.0, "w", "width of every iceberg (the mean width with `width_std`)", lambda v: v > 0.0, "must be > 0"),
     Key("thickness", 1.4, "w", "mean thickness (the paper's aspect ratio 1.4)", lambda v: v > 0.0, "must be > 0"),
     Key.nonnegative("gap", 0.1, "w", "gap between neighbours, and from the wall to the first iceberg"),
     Key(
@@ -174,6 +174,13 @@ SHELF = (
         "must be in [0, pi]",
     ),
     Key.nonnegative("thickness_std", 0.0, "w", "standard deviation of a normal spread of thicknesses (0: all equal)"),
+    Key.nonnegative(
+        "width_std",
+        0.0,
+        "w",
+        "standard deviation of a normal spread of widths (0: all equal), drawn after the tilts and thicknesses (it "
+        "changes neither); neighbours keep `gap` (none inside a bonded shelf)",
+    ),
     Key(
         "bonded",
         False,
