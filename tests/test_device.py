@@ -365,8 +365,8 @@ def test_bonds_on_vulkan_within_the_models_own_rounding_sensitivity(tmp_path, pr
     itself when every initial x moves by one ulp, for the slab in f64; and the struck row
     must break the same bonds at the same steps into the same fragments, f64 and f32. Not
     asserted, and said in docs/bonds.md: the slab's state in f32 (0.7% on the slab's
-    angular velocity, against 6e-7 for one ulp of x on the CPU; not yet traced, and not the
-    device's f32 ``sin``, ``cos``, division or ``sqrt``, measured within 1 ulp), and the
+    angular velocity, against 6e-7 for one ulp of x on the CPU; likely the device's division
+    by a constant, not correctly rounded, docs/devices.md), and the
     struck row's state in f64 (1.6e-11 of the CPU's, one ulp 1.7e-12: the contacts' path
     on the device rounds otherwise)."""
     import tomllib
