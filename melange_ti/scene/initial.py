@@ -131,13 +131,26 @@ def _extent(width: float, thickness: float, radius: float, tilt: float) -> float
     return float(np.max(np.abs(iu * np.cos(t)) + np.abs(iv * np.sin(t))) + radius)
 
 
+def _reach_beyond(width: np.ndarray, thickness: float, radius: float, tilt: float) -> np.ndarray:
+    """:func:`_extent` less the half width, for every width (vectorised, in chunks)."""
+    t = np.linspace(0.0, tilt, 1001)
+    c, s = np.abs(np.cos(t)), np.abs(np.sin(t))
+    iv = 0.5 * thickness - radius
+    out = np.empty(width.shape[0])
+    for lo in range(0, width.shape[0], 4096):
+        w = width[lo : lo + 4096]
+        iu = 0.5 * w - radius
+        out[lo : lo + 4096] = np.max(np.abs(iu[:, None]) * c + np.abs(iv) * s, axis=1) + radius - 0.5 * w
+    return out
+
+
 def _shelf_advice(scene: Scene, b: Icebergs, r: np.ndarray, wall: bool) -> str:
     """What ``shelf.gap`` would leave room for any tilt up to ``shelf.tilt``."""
     sh = scene.shelf
     ext = _extent(sh.width, float(b.thickness.max()), float(r.max()), sh.tilt)
     need = ext - 0.5 * sh.width if wall else 2.0 * ext - sh.width
     if sh.width_std > 0:  # each iceberg's reach beyond its faces, from its own width: room at the wall and between all
-        out = np.array([_extent(w, float(b.thickness.max()), float(r.max()), sh.tilt) - 0.5 * w for w in b.width])
+        out = _reach_beyond(b.width, float(b.thickness.max()), float(r.max()), sh.tilt)
         need = float(max(out[0], np.max(out[1:] + out[:-1], initial=0.0)))
     return f"use shelf.gap >= {math.ceil(need * 1e4) / 1e4:g} (room for any tilt up to shelf.tilt) or a smaller shelf.tilt"
 
