@@ -120,24 +120,36 @@ def potential_energy(z, theta, width, thickness, density_ratio, water_level=0.0)
     return mass * (z - water_level) - (sz + a * (z - water_level))
 
 
+def below(poly: np.ndarray, level: float) -> np.ndarray:
+    """The part of the convex counter-clockwise polygon ``poly`` ((K, 2): x, z) below
+    z = ``level`` (Sutherland-Hodgman), independent of the model's edge-by-edge formula."""
+    out = []
+    n = len(poly)
+    for k in range(n):
+        p, q = poly[k], poly[(k + 1) % n]
+        if p[1] <= level:
+            out.append(p)
+        if (p[1] < level) != (q[1] < level):
+            out.append(p + (level - p[1]) / (q[1] - p[1]) * (q - p))
+    return np.array(out)
+
+
+def area_centroid(poly: np.ndarray) -> tuple[float, float, float]:
+    """Area and centroid (x, z) of a counter-clockwise polygon (0 for fewer than 3 corners)."""
+    if len(poly) < 3:
+        return 0.0, 0.0, 0.0
+    x, z = poly[:, 0], poly[:, 1]
+    x1, z1 = np.roll(x, -1), np.roll(z, -1)
+    cr = x * z1 - x1 * z
+    a = cr.sum() / 2
+    return float(a), float((cr * (x + x1)).sum() / (6 * a)), float((cr * (z + z1)).sum() / (6 * a))
+
+
 def clipped_moments(z, theta, w, h, wl=0.0):
     """Area A and first moment Sx = int (x - x_G) dA of a rectangle clipped at z = wl
-    (Sutherland-Hodgman in numpy, independent of the model's edge-by-edge formula)."""
+    (:func:`below`, independent of the model's edge-by-edge formula)."""
     c, s = math.cos(theta), math.sin(theta)
     signs = ((1, -1), (1, 1), (-1, 1), (-1, -1))
-    corners = [(su * w / 2 * c - sv * h / 2 * s, z + su * w / 2 * s + sv * h / 2 * c) for su, sv in signs]
-    poly = []
-    for k in range(4):
-        p, q = corners[k], corners[(k + 1) % 4]
-        if p[1] <= wl:
-            poly.append(p)
-        if (p[1] < wl) != (q[1] < wl):
-            t = (wl - p[1]) / (q[1] - p[1])
-            poly.append((p[0] + t * (q[0] - p[0]), wl))
-    if len(poly) < 3:
-        return 0.0, 0.0
-    P = np.array(poly)
-    x, y = P[:, 0], P[:, 1]
-    x1, y1 = np.roll(x, -1), np.roll(y, -1)
-    cr = x * y1 - x1 * y
-    return cr.sum() / 2, (cr * (x + x1)).sum() / 6
+    corners = np.array([(su * w / 2 * c - sv * h / 2 * s, z + su * w / 2 * s + sv * h / 2 * c) for su, sv in signs])
+    a, xb, _ = area_centroid(below(corners, wl))
+    return a, a * xb

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import scene as scene_mod
+from .geometry import area_centroid, below
 from .physics.data.schema import STATE_NAMES
 from .scene import dumps_toml
 
@@ -152,8 +153,8 @@ def coulomb_impulse(k: np.ndarray, vn: float, vt: float, e: float, mu: float) ->
 # ---------------------------------------------------------------- floating stability, in numpy
 # A polygon floating freely: at each orientation it sits at the water line that leaves the
 # share ``r`` of it submerged; its potential energy there is ``-rho g r A z_B``, ``z_B`` the
-# submerged part's centroid above the centre of mass. Written again here (Sutherland-Hodgman
-# clipping), independently of the model's edge-by-edge hydrostatics and of ``geometry``.
+# submerged part's centroid above the centre of mass. Clipped by Sutherland-Hodgman
+# (:func:`..geometry.below`), independently of the model's edge-by-edge hydrostatics.
 def rectangle(width: float, thickness: float) -> np.ndarray:
     """A rectangle's corners about its centre, counter-clockwise (4, 2)."""
     w, h = 0.5 * width, 0.5 * thickness
@@ -163,30 +164,6 @@ def rectangle(width: float, thickness: float) -> np.ndarray:
 def rotated(poly: np.ndarray, theta: float) -> np.ndarray:
     c, s = np.cos(theta), np.sin(theta)
     return poly @ np.array([[c, s], [-s, c]])
-
-
-def below(poly: np.ndarray, level: float) -> np.ndarray:
-    """The part of the convex polygon ``poly`` below z = ``level`` (Sutherland-Hodgman)."""
-    out = []
-    n = len(poly)
-    for k in range(n):
-        p, q = poly[k], poly[(k + 1) % n]
-        if p[1] <= level:
-            out.append(p)
-        if (p[1] < level) != (q[1] < level):
-            out.append(p + (level - p[1]) / (q[1] - p[1]) * (q - p))
-    return np.array(out)
-
-
-def area_centroid(poly: np.ndarray) -> tuple[float, float, float]:
-    """Area and centroid (x, z) of a counter-clockwise polygon (0 for fewer than 3 corners)."""
-    if len(poly) < 3:
-        return 0.0, 0.0, 0.0
-    x, z = poly[:, 0], poly[:, 1]
-    x1, z1 = np.roll(x, -1), np.roll(z, -1)
-    cr = x * z1 - x1 * z
-    a = cr.sum() / 2
-    return float(a), float((cr * (x + x1)).sum() / (6 * a)), float((cr * (z + z1)).sum() / (6 * a))
 
 
 def floating(poly: np.ndarray, r: float, theta: float) -> tuple[float, float, float]:

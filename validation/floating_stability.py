@@ -9,10 +9,10 @@ the metacentric height, for a square and the paper's 1 x 1.4 block at density ra
 water line that leaves ``r A`` of it submerged (bisection of the clipped area); its potential
 energy is then ``U(theta) = -rho g r A z_B`` with ``z_B`` the submerged part's centroid above
 the block's centre of mass (``m g z_G - rho g int_sub z dA`` at that draft). The clipping is
-Sutherland-Hodgman on the block's corners, written here again (not the model's edge-by-edge
-formula, nor :mod:`melange_ti.geometry`'s; :func:`melange_ti.testing.floating`, shared with
-the tests). ``U`` is swept over every orientation on a fine
-grid and its global minimum refined by golden section. A square floats flat (a face up) only
+Sutherland-Hodgman on the block's corners (:func:`melange_ti.geometry.below`, not the
+model's edge-by-edge formula; :func:`melange_ti.testing.floating`, shared with the tests).
+``U`` is swept over every orientation on a fine grid and its global minimum refined by
+golden section. A square floats flat (a face up) only
 for ``r < (3 - sqrt 3) / 6 = 0.2113`` or ``r > 0.7887``, where its metacentric height
 ``GM = 1 / (12 r) + r / 2 - 1/2`` is positive; in between it floats tilted, corner-up in the
 middle. Flat and stable, a block of width ``w`` (the water line's length) and thickness ``h``

@@ -77,21 +77,22 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
         width = rng.normal(shelf.width, shelf.width_std, n)
         if np.any(width <= 0.05 * shelf.width):
             raise error("shelf.width_std", shelf.width_std, "draws widths <= 5% of shelf.width; use a smaller spread")
-    # the left face of each iceberg: the widths before it and the gaps up to it
-    before = np.concatenate([[0.0], np.cumsum(width[:-1])])
-    x = physics.wall_x + shelf.gap + 0.5 * shelf.width + np.arange(n) * (shelf.width + shelf.gap)
-    if shelf.width_std > 0:
-        x = physics.wall_x + shelf.gap + before + np.arange(n) * shelf.gap + 0.5 * width
+    # the gaps up to each iceberg, from the wall
+    start = physics.wall_x + shelf.gap
+    gaps = np.arange(n) * shelf.gap
     if shelf.bonded:
         # an intact shelf: no gaps (none at the wall either when bonded to it), upright; the
         # seaward ``front`` icebergs free, ``gap`` apart, with their tilts
         last = max(0, n - shelf.front)
         start = physics.wall_x + (0.0 if shelf.bonded_wall else shelf.gap)
-        steps = np.where(np.arange(n) < last, 0.0, shelf.gap)
-        x = start + 0.5 * shelf.width + np.arange(n) * shelf.width + np.cumsum(steps)
-        if shelf.width_std > 0:
-            x = start + before + np.cumsum(steps) + 0.5 * width
+        gaps = np.cumsum(np.where(np.arange(n) < last, 0.0, shelf.gap))
         theta = np.where(np.arange(n) < last, 0.0, theta)
+    if shelf.width_std > 0:  # each iceberg's left face after the widths before it
+        x = start + np.concatenate([[0.0], np.cumsum(width[:-1])]) + gaps + 0.5 * width
+    elif shelf.bonded:  # equal widths: the formulas the regression hashes were recorded with
+        x = start + 0.5 * shelf.width + np.arange(n) * shelf.width + gaps
+    else:
+        x = start + 0.5 * shelf.width + np.arange(n) * (shelf.width + shelf.gap)
     z = equilibrium_z(thickness, physics.density_ratio, physics.water_level)
     zeros = np.zeros(n)
     return Icebergs(x=x, z=z, theta=theta, vx=zeros, vz=zeros.copy(), omega=zeros.copy(), width=width, thickness=thickness)
@@ -124,34 +125,28 @@ def _world_discs(b: Icebergs, idx: np.ndarray, local: np.ndarray) -> np.ndarray:
     return np.stack([b.x[idx, None] + u * c[:, None] - v * s[:, None], b.z[idx, None] + u * s[:, None] + v * c[:, None]], -1)
 
 
-def _extent(width: float, thickness: float, radius: float, tilt: float) -> float:
-    """Largest horizontal half-extent of the disc union of a rectangle tilted by up to ``tilt``."""
-    iu, iv = 0.5 * width - radius, 0.5 * thickness - radius
-    t = np.linspace(0.0, tilt, 1001)
-    return float(np.max(np.abs(iu * np.cos(t)) + np.abs(iv * np.sin(t))) + radius)
-
-
-def _reach_beyond(width: np.ndarray, thickness: float, radius: float, tilt: float) -> np.ndarray:
-    """:func:`_extent` less the half width, for every width (vectorised, in chunks)."""
+def _extents(width: np.ndarray, thickness: float, radius: float, tilt: float) -> np.ndarray:
+    """Largest horizontal half-extent of the disc union of rectangles ``width`` wide tilted
+    by up to ``tilt`` (vectorised over the widths, in chunks)."""
     t = np.linspace(0.0, tilt, 1001)
     c, s = np.abs(np.cos(t)), np.abs(np.sin(t))
     iv = 0.5 * thickness - radius
     out = np.empty(width.shape[0])
     for lo in range(0, width.shape[0], 4096):
-        w = width[lo : lo + 4096]
-        iu = 0.5 * w - radius
-        out[lo : lo + 4096] = np.max(np.abs(iu[:, None]) * c + np.abs(iv) * s, axis=1) + radius - 0.5 * w
+        iu = 0.5 * width[lo : lo + 4096] - radius
+        out[lo : lo + 4096] = np.max(np.abs(iu[:, None]) * c + np.abs(iv) * s, axis=1) + radius
     return out
 
 
 def _shelf_advice(scene: Scene, b: Icebergs, r: np.ndarray, wall: bool) -> str:
     """What ``shelf.gap`` would leave room for any tilt up to ``shelf.tilt``."""
     sh = scene.shelf
-    ext = _extent(sh.width, float(b.thickness.max()), float(r.max()), sh.tilt)
-    need = ext - 0.5 * sh.width if wall else 2.0 * ext - sh.width
     if sh.width_std > 0:  # each iceberg's reach beyond its faces, from its own width: room at the wall and between all
-        out = _reach_beyond(b.width, float(b.thickness.max()), float(r.max()), sh.tilt)
+        out = _extents(b.width, float(b.thickness.max()), float(r.max()), sh.tilt) - 0.5 * b.width
         need = float(max(out[0], np.max(out[1:] + out[:-1], initial=0.0)))
+    else:
+        ext = float(_extents(np.array([sh.width]), float(b.thickness.max()), float(r.max()), sh.tilt)[0])
+        need = ext - 0.5 * sh.width if wall else 2.0 * ext - sh.width
     return f"use shelf.gap >= {math.ceil(need * 1e4) / 1e4:g} (room for any tilt up to shelf.tilt) or a smaller shelf.tilt"
 
 
