@@ -202,13 +202,16 @@ class Model:
         a.cells.from_numpy(np.zeros(a.cells.shape, dtype=np.int32))
         self.clear_candidate_lists()
 
-        # parameters: each slot from the scene key the schema names, plus two derived ones
+        # parameters: each slot from the scene key the schema names, plus the derived ones
+        # and the hydrostatics' run-time divisors (schema.BASE_PARAMS)
         par = np.zeros(PARAMS.size)
         for k, col in enumerate(PARAMS.columns):
             if col.source is not None:
                 par[k] = _scene_value(scene, col.source)
         par[Param.BOUND_MAX] = float(bound.max())
         par[Param.EPS] = float(np.finfo(self.np_real).eps)
+        par[Param.SIX] = 6.0
+        par[Param.TWELVE] = 12.0
         for name, value in (self.owned.params() if self.owned is not None else {}).items():
             par[getattr(Param, name)] = value
         a.par.from_numpy(par.astype(self.np_real))

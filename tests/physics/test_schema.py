@@ -4,12 +4,14 @@ Taichi compiles ``a.cd[s, i, Body.VX]`` without complaint (both are integers), s
 reads every kernel module and checks that each subscript whose column comes from a schema
 namespace indexes the array that namespace describes, and that no schema array is indexed
 by a bare integer column. A checker test on a deliberately wrong snippet shows that the
-lint catches what it is for.
+lint catches what it is for. A second lint finds a kernel's division by a constant that is
+not a power of two, which a device rounds otherwise (docs/devices.md).
 """
 
 from __future__ import annotations
 
 import ast
+import math
 from pathlib import Path
 
 import pytest
@@ -163,7 +165,7 @@ def test_parameters_come_from_scene_keys():
 
     sc = scene.load(None)
     for c in schema.PARAMS.columns:
-        if c.name in ("BOUND_MAX", "EPS", "WAVE_DX", "WAVE_Q"):
+        if c.name in ("BOUND_MAX", "EPS", "SIX", "TWELVE", "WAVE_DX", "WAVE_Q"):
             assert c.source is None
             continue
         section, key = c.source.split(".")
@@ -178,3 +180,48 @@ def test_energy_ledgers_are_marked_not_matched_by_units():
         Column("TYPO", "ledger", "rho_w g w3", "energy with mistyped units", "typo_work", budget=True)
     with pytest.raises(ValueError, match="budget"):
         Column("TYPO", "scratch", schema.E, "not a ledger", "typo_work", budget=True)
+
+
+def _constant(node: ast.AST):
+    """The number a literal expression (``6.0``, ``-6``, ``2 * 3.0``) stands for, else None."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
+        return node.value
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        v = _constant(node.operand)
+        return None if v is None else (-v if isinstance(node.op, ast.USub) else v)
+    if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Mult, ast.Add, ast.Sub)):
+        x, y = _constant(node.left), _constant(node.right)
+        if x is not None and y is not None:
+            return {ast.Mult: x * y, ast.Add: x + y, ast.Sub: x - y}[type(node.op)]
+    return None
+
+
+def constant_divisions(text: str, where: str = "<source>") -> list[str]:
+    """Divisions by a literal that is not a power of two inside ``@ti.func``/``@ti.kernel``
+    functions: a device's compiler turns ``x / 6.0`` into ``x * (1/6)``, not correctly
+    rounded (docs/devices.md), so the kernels divide by such numbers read at run time."""
+    problems = []
+    for func in ast.walk(ast.parse(text)):
+        if not isinstance(func, ast.FunctionDef):
+            continue
+        if not any(getattr(d, "attr", None) in ("func", "kernel") for d in func.decorator_list):
+            continue
+        for node in ast.walk(func):
+            if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div):
+                v = _constant(node.right)
+                if v is not None and (v == 0 or math.frexp(abs(v))[0] != 0.5):
+                    problems.append(f"{where}:{node.lineno}: divides by the constant {v}")
+    return problems
+
+
+def test_lint_catches_a_division_by_a_constant():
+    wrong = "@ti.func\ndef f(x, y):\n    return x / 6.0 + x / (2 * 3) + x / -12\n"
+    assert len(constant_divisions(wrong)) == 3, constant_divisions(wrong)
+    right = "@ti.func\ndef f(x, y, six):\n    return x / six + x / 2.0 + 0.25 / 4 + 1.0 / (1.0 + y)\n"
+    right += "\ndef host(x):\n    return x / 6.0\n"  # not a kernel
+    assert constant_divisions(right) == []
+
+
+def test_kernels_divide_by_no_constant_but_a_power_of_two():
+    problems = [p for m in _modules() for p in constant_divisions(m.read_text(), str(m.relative_to(PHYSICS)))]
+    assert not problems, "\n".join(problems)

@@ -337,6 +337,10 @@ BASE_PARAMS = (
     Column("WATER", "constant", "w", "sea surface height", source="physics.water_level"),
     Column("BOUND_MAX", "constant", "w", "largest bounding radius"),
     Column("EPS", "constant", "1", "machine epsilon of the model's precision"),
+    # the hydrostatic moments' divisors, read at run time: a device's compiler turns x / 6.0
+    # into x * (1/6), not correctly rounded (docs/devices.md); x / y rounds as on the CPU
+    Column("SIX", "constant", "1", "6, the divisor of a segment's first moments"),
+    Column("TWELVE", "constant", "1", "12, the divisor of a segment's second moments"),
 )
 
 

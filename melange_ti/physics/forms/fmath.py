@@ -35,11 +35,14 @@ C1, C2, C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872
 C4, C5, C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
 
 
+def on_spirv() -> bool:
+    """True while compiling for a SPIR-V backend (decided when a kernel compiles)."""
+    return str(ti.lang.impl.current_cfg().arch).split(".")[-1] in SPIRV_ARCHS
+
+
 def needs_own_trig() -> bool:
     """True while compiling for a SPIR-V backend in f64 (decided when a kernel compiles)."""
-    cfg = ti.lang.impl.current_cfg()
-    arch = str(cfg.arch).split(".")[-1]
-    return arch in SPIRV_ARCHS and ti.lang.impl.get_runtime().default_fp == ti.f64
+    return on_spirv() and ti.lang.impl.get_runtime().default_fp == ti.f64
 
 
 @ti.func

@@ -5,18 +5,36 @@ moments ``Sx = int (x - x_G) dA``, ``Sz = int (z - z_G) dA`` (about the centre o
 from Green's theorem summed edge by edge over the clipped boundary: each edge below the water
 contributes fully, an edge that crosses contributes its submerged piece, and the water-line
 segment from the exit to the entry crossing closes the polygon. Units: widths, g = rho_w = 1.
+
+The divisors 6 and 12 come in as arguments (:func:`divisors`): on a SPIR-V device they are
+read at run time (``Param.SIX``, ``Param.TWELVE``), because its compiler turns a division by a
+constant into a multiplication by the reciprocal, which is not correctly rounded (on lavapipe
+a third of f32 quotients differ by an ulp), while a division by a run-time value rounds as on
+the CPU. On the CPU they are the literals, and the code is what it was.
 """
 
 import taichi as ti
 
+from ..data.schema import Param
+from ..forms.fmath import on_spirv
 from ..numerics import FAR
 
 
 @ti.func
-def _segment(px, pz, qx, qz):
-    """Contribution of the directed segment p->q to (A, Sx, Sz) of a CCW polygon."""
+def divisors(par: ti.template()):
+    """``(6, 12)``, the moments' divisors: literals on the CPU, read from ``par`` on a SPIR-V
+    device (above)."""
+    six, twelve = 6.0, 12.0
+    if ti.static(on_spirv()):
+        six, twelve = par[Param.SIX], par[Param.TWELVE]
+    return six, twelve
+
+
+@ti.func
+def _segment(px, pz, qx, qz, six):
+    """Contribution of the directed segment p->q to (A, Sx, Sz) of a CCW polygon (``six`` = 6)."""
     cross = px * qz - qx * pz
-    return ti.Vector([0.5 * cross, cross * (px + qx) / 6.0, cross * (pz + qz) / 6.0])
+    return ti.Vector([0.5 * cross, cross * (px + qx) / six, cross * (pz + qz) / six])
 
 
 @ti.func
@@ -53,12 +71,12 @@ def _wet_edge(k: ti.template(), hw, hh, c, s, level):
 
 
 @ti.func
-def submerged_moments(z, c, s, hw, hh, water_level):
+def submerged_moments(z, c, s, hw, hh, water_level, six):
     """(A, Sx, Sz) of the part of the rectangle below ``water_level``.
 
     ``z``: centre height; ``c``, ``s``: cosine and sine of the tilt (CCW); ``hw``, ``hh``:
-    half width and half thickness. Moments are about the centre of mass, so the buoyancy
-    torque is ``rho g Sx``.
+    half width and half thickness; ``six``: 6, read at run time (above). Moments are about
+    the centre of mass, so the buoyancy torque is ``rho g Sx``.
     """
     level = water_level - z
     m = ti.Vector([0.0, 0.0, 0.0])
@@ -68,7 +86,7 @@ def submerged_moments(z, c, s, hw, hh, water_level):
     for k in ti.static(range(4)):
         a, b, wet, leaves, enters = _wet_edge(k, hw, hh, c, s, level)
         if wet:
-            m += _segment(a[0], a[1], b[0], b[1])
+            m += _segment(a[0], a[1], b[0], b[1], six)
         if leaves:
             exit_pt = b
             crossed = 1
@@ -76,15 +94,16 @@ def submerged_moments(z, c, s, hw, hh, water_level):
             entry_pt = a
             crossed = 1
     if crossed:
-        m += _segment(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1])
+        m += _segment(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1], six)
     return m
 
 
 @ti.func
-def _second(px, pz, qx, qz):
-    """Contribution of the directed segment p->q to (int x^2 dA, int z^2 dA) of a CCW polygon."""
+def _second(px, pz, qx, qz, twelve):
+    """Contribution of the directed segment p->q to (int x^2 dA, int z^2 dA) of a CCW polygon
+    (``twelve`` = 12)."""
     cross = px * qz - qx * pz
-    return ti.Vector([cross * (px * px + px * qx + qx * qx) / 12.0, cross * (pz * pz + pz * qz + qz * qz) / 12.0])
+    return ti.Vector([cross * (px * px + px * qx + qx * qx) / twelve, cross * (pz * pz + pz * qz + qz * qz) / twelve])
 
 
 @ti.func
@@ -95,12 +114,13 @@ def _cube_integral(a, b, length):
 
 
 @ti.func
-def wetted(z, c, s, hw, hh, water_level, ux, uz):
+def wetted(z, c, s, hw, hh, water_level, ux, uz, six, twelve):
     """The submerged part of the rectangle, for the water's dynamic loads (form drag, added
     mass): its area ``A``, polar second moment ``J = int |r|^2 dA`` about the centre of mass,
     its width projected on the unit direction (ux, uz), ``P = max r.u - min r.u``, and
     ``R3 = int over the wetted faces of |r x n|^3 ds`` (n the face's normal), the lever-arm
-    integral of a quadratic pressure drag on rotation. Relative to the centre of mass."""
+    integral of a quadratic pressure drag on rotation. Relative to the centre of mass.
+    ``six``, ``twelve``: 6 and 12, read at run time (above)."""
     level = water_level - z
     area = 0.0
     second = ti.Vector([0.0, 0.0])
@@ -119,9 +139,9 @@ def wetted(z, c, s, hw, hh, water_level, ux, uz):
             entry_pt = a
             crossed = 1
         if wet:
-            m = _segment(a[0], a[1], b[0], b[1])
+            m = _segment(a[0], a[1], b[0], b[1], six)
             area += m[0]
-            second += _second(a[0], a[1], b[0], b[1])
+            second += _second(a[0], a[1], b[0], b[1], twelve)
             for end in ti.static(range(2)):
                 pt = a if end == 0 else b
                 proj = pt[0] * ux + pt[1] * uz
@@ -135,9 +155,9 @@ def wetted(z, c, s, hw, hh, water_level, ux, uz):
                 tz = (b[1] - a[1]) / length
                 r3 += _cube_integral(-(a[0] * tx + a[1] * tz), -1.0, length)
     if crossed:
-        m = _segment(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1])
+        m = _segment(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1], six)
         area += m[0]
-        second += _second(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1])
+        second += _second(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1], twelve)
     width = 0.0
     if hi >= lo:
         width = hi - lo

@@ -3,14 +3,15 @@
 import taichi as ti
 
 from ...data.schema import Body, Param
-from ...shape.hydrostatics import submerged_moments
+from ...shape.hydrostatics import divisors, submerged_moments
 
 
 @ti.func
 def _moments(a: ti.template(), i):
     b = ti.static(a.b)
+    six, _ = divisors(a.par)
     return submerged_moments(
-        b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN], 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], a.par[Param.WATER]
+        b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN], 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], a.par[Param.WATER], six
     )
 
 
