@@ -30,27 +30,17 @@ SIZES = {400: (2000, 20000), 100_000: (20, 100)}  # warm-up and timed steps
 
 
 def child(name: str, n: int) -> None:
-    import time
-
     from melange_ti import runtime, scene
+    from melange_ti.bench.common import time_advance
 
     runtime.init("cpu", threads=1 if n <= 400 else None)
-    import taichi as ti
-
     from melange_ti.model import Model
 
     sc = scene.load(None, overrides=[("shelf.count", n), *SCENES[name]])
     m = Model(sc)
     warm, steps = SIZES[n]
     m.advance(warm)
-    best = 1e9
-    for _ in range(3):
-        ti.sync()
-        t0 = time.perf_counter()
-        m.advance(steps)
-        ti.sync()
-        best = min(best, (time.perf_counter() - t0) / steps * 1e3)
-    print(f"{m.mode},{best:.5f}")
+    print(f"{m.mode},{time_advance(m, steps, 3, pick=min) * 1e3:.5f}")
 
 
 def main() -> None:

@@ -59,25 +59,21 @@ def _ledger_fields() -> tuple[Field, ...]:
 
 def _held_fields() -> tuple[Field, ...]:
     """Every energy an effect holds (its declaration's ``held``), part of ``E``: the value the
-    effect's sample gives, 0 in a run without the effect."""
+    effect's sample gives; without the effect, the declaration's ``without`` (0)."""
 
     def field(q) -> Field:
-        return Field(q.name, "f8", q.units, q.doc, lambda e: float(e.sample.get(q.name, 0.0)), q.since)
+        return Field(q.name, "f8", q.units, q.doc, lambda e: float(e.sample.get(q.name, q.without(e.sample))), q.since)
 
     return tuple(field(q) for eff in REGISTRY for q in eff.held)
 
 
 def _report_fields() -> tuple[Field, ...]:
     """Every diagnostic an effect reports beyond energies (its declaration's ``reports``), a
-    count: the value its sample gives; without the effect, ``fragments`` is the icebergs'
-    count (each its own piece) and any other 0."""
+    count: the value its sample gives; without the effect, the declaration's ``without``
+    (``fragments``: the icebergs, each its own piece; any other 0)."""
 
     def field(q) -> Field:
-        if q.name == "fragments":
-            compute = lambda e: int(e.sample.get(q.name, np.size(e.sample["x"])))  # noqa: E731
-        else:
-            compute = lambda e: int(e.sample.get(q.name, 0))  # noqa: E731
-        return Field(q.name, "i8", q.units, q.doc, compute, q.since)
+        return Field(q.name, "i8", q.units, q.doc, lambda e: int(e.sample.get(q.name, q.without(e.sample))), q.since)
 
     return tuple(field(q) for eff in REGISTRY for q in eff.reports)
 

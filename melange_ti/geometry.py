@@ -12,6 +12,13 @@ import math
 import numpy as np
 
 
+def mass_inertia(width, thickness, density_ratio: float):
+    """Mass ``density_ratio * width * thickness`` and moment of inertia about the centre of
+    mass, ``mass (width^2 + thickness^2) / 12``, of rectangles (rho_w = 1)."""
+    mass = density_ratio * width * thickness
+    return mass, mass * (width**2 + thickness**2) / 12.0
+
+
 def disc_radius(width, thickness, discs: int, spacing: float = 2.0):
     """Radius of the collision discs of rectangles ``width`` x ``thickness``.
 

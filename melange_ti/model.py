@@ -26,7 +26,7 @@ import taichi as ti
 
 from . import runtime  # noqa: F401  (imported for its patch: Taichi reuses source-position text)
 from .errors import ContactOverflow
-from .geometry import disc_radius
+from .geometry import disc_radius, mass_inertia
 from .physics.data.schema import (
     ACC_LEDGERS,
     ACCUMULATORS,
@@ -183,12 +183,12 @@ class Model:
         a = self.arrays
         p = scene.physics
         rows = np.zeros((n, body_width(self.fx)), dtype=np.float64)
-        mass = p.density_ratio * bergs.width * bergs.thickness
+        mass, inertia = mass_inertia(bergs.width, bergs.thickness, p.density_ratio)
         bound = 0.5 * np.hypot(bergs.width, bergs.thickness)
         rows[:, Body.WIDTH] = bergs.width
         rows[:, Body.THICK] = bergs.thickness
         rows[:, Body.MASS] = mass
-        rows[:, Body.INERTIA] = mass * (bergs.width**2 + bergs.thickness**2) / 12.0
+        rows[:, Body.INERTIA] = inertia
         rows[:, Body.RADIUS] = disc_radius(bergs.width, bergs.thickness, scene.contacts.discs, scene.contacts.disc_spacing)
         rows[:, Body.BOUND] = bound
         for name, col in BODIES.outputs("state").items():

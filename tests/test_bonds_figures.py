@@ -146,6 +146,14 @@ def test_plot_draws_fragments_for_a_bonded_run_only(bonded, unbonded, tmp_path):
     assert len(labels) == 2 and "bonds" in labels[0] and "τ = 3/2" in labels[1], labels
 
 
+def test_a_run_without_bonds_reports_each_iceberg_its_own_piece(unbonded):
+    """The bonds' diagnostics in a run without the effect: its declared values without it
+    (``Quantity.without``), every iceberg its own piece, no bond, no bond energy."""
+    d = read_run(unbonded)["diagnostics"]
+    assert d["time"].size > 2
+    assert np.all(d["fragments"] == 6) and np.all(d["bonds_intact"] == 0) and np.all(d["bond_energy"] == 0)
+
+
 def test_fig2_draws_the_bonds_of_a_bonded_run_only(bonded, unbonded):
     from matplotlib.collections import LineCollection
     from matplotlib.colors import to_rgba

@@ -106,8 +106,9 @@ def tile(state: dict[str, np.ndarray], n: int, gap: float = 0.1) -> dict[str, np
 
 
 # ============================================================================ timing
-def time_advance(model, steps: int, repeats: int) -> float:
-    """Median wall seconds per step of ``model.advance(steps)`` over ``repeats`` blocks."""
+def time_advance(model, steps: int, repeats: int, pick=statistics.median) -> float:
+    """Wall seconds per step of ``model.advance(steps)``: the median (or ``pick``) over
+    ``repeats`` blocks."""
     per = []
     for _ in range(max(1, repeats)):
         sync()
@@ -115,7 +116,7 @@ def time_advance(model, steps: int, repeats: int) -> float:
         model.advance(steps)
         sync()
         per.append((time.perf_counter() - t0) / steps)
-    return statistics.median(per)
+    return pick(per)
 
 
 def steps_for(n: int, quick: bool, override: int | None, work: float = 4e5, lo: int = 20, hi: int = 1000) -> int:

@@ -46,16 +46,22 @@ def _positive(v) -> bool:
     return v > 0.0
 
 
+def _zero(sample: dict) -> float:
+    return 0.0
+
+
 @dataclass(frozen=True)
 class Quantity:
     """A named value an effect gives at every output event (``held``: an energy it holds,
-    part of ``E``; a diagnostic of that name): units, meaning, and the run-file format
-    version that first holds it."""
+    part of ``E``; a diagnostic of that name): units, meaning, the run-file format version
+    that first holds it, and its value in a run without the effect (``without``, from the
+    output event's sample; 0 unless given)."""
 
     name: str
     units: str
     doc: str
     since: int = 1
+    without: Callable[[dict], float] = _zero
 
 
 @dataclass(frozen=True)

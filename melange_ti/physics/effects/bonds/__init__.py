@@ -266,6 +266,7 @@ EFFECT = Effect(
             "1",
             "pieces of ice: connected components of the icebergs over intact bonds (without the bonds effect: the icebergs)",
             since=6,
+            without=lambda sample: len(sample["x"]),  # each iceberg its own piece
         ),
     ),
     dims=(("bond", "index of the bond"), ("bond_rest", "the bond table's columns fixed at t = 0, in order")),

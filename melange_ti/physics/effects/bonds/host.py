@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from ....geometry import mass_inertia
 from ..base import State
 from . import GEOMETRY, MAX_BONDS, MIN_OVERLAP, POISSON, REST, TABLE, TOUCH, Bond, weibull_scale
 
@@ -166,8 +167,7 @@ def material(scene, bergs, rows: np.ndarray) -> np.ndarray:
     j = rows[on, Bond.B].astype(np.int64)
     wall = j < 0
     jj = np.where(wall, 0, j)
-    mass = p.density_ratio * bergs.width * bergs.thickness
-    inertia = mass * (bergs.width**2 + bergs.thickness**2) / 12.0
+    mass, inertia = mass_inertia(bergs.width, bergs.thickness, p.density_ratio)
     m_eff = np.where(wall, mass[i], mass[i] * mass[jj] / (mass[i] + mass[jj]))
     i_eff = np.where(wall, inertia[i], inertia[i] * inertia[jj] / (inertia[i] + inertia[jj]))
     e = p.bond_modulus
@@ -223,25 +223,36 @@ def gamma_max(table: np.ndarray, bergs, density_ratio: float) -> float:
     return gershgorin(table, bergs, density_ratio, (Bond.CN, Bond.CS, Bond.CB))
 
 
+def world(t: np.ndarray, x: np.ndarray, z: np.ndarray, th: np.ndarray):
+    """Bond rows ``t`` in the world frame of the state ``x, z, th`` (numpy, f64), as the
+    kernels' :func:`.kernels.points`: ``(i, jj, wall, ra, n, rb, pb)``, A's and B's indices
+    (``jj`` 0 where B is the wall), which are the wall's, A's arm, the bond's normal, B's arm
+    (0 for the wall) and B's point (the wall's fixed point), each vector as an (x, z) pair."""
+    i = t[:, Bond.A].astype(np.int64)
+    j = t[:, Bond.B].astype(np.int64)
+    wall = j < 0
+    jj = np.where(wall, 0, j)
+    ca, sa, cb, sb = np.cos(th[i]), np.sin(th[i]), np.cos(th[jj]), np.sin(th[jj])
+    ra = (ca * t[:, Bond.UA] - sa * t[:, Bond.VA], sa * t[:, Bond.UA] + ca * t[:, Bond.VA])
+    n = (ca * t[:, Bond.NU] - sa * t[:, Bond.NV], sa * t[:, Bond.NU] + ca * t[:, Bond.NV])
+    rb = (cb * t[:, Bond.UB] - sb * t[:, Bond.VB], sb * t[:, Bond.UB] + cb * t[:, Bond.VB])
+    rb = (np.where(wall, 0.0, rb[0]), np.where(wall, 0.0, rb[1]))
+    pb = (np.where(wall, t[:, Bond.UB], x[jj] + rb[0]), np.where(wall, t[:, Bond.VB], z[jj] + rb[1]))
+    return i, jj, wall, ra, n, rb, pb
+
+
 def gershgorin(table: np.ndarray, bergs, density_ratio: float, cols: tuple[int, int, int]) -> float:
     """The largest row sum of ``|M^-1/2 J^T diag(cols) J M^-1/2|`` over the intact bonds."""
     on = (table[:, Bond.A] >= 0) & (table[:, Bond.INTACT] > 0.5)
     if not on.any():
         return 0.0
     t = table[on]
-    mass = density_ratio * np.asarray(bergs.width) * np.asarray(bergs.thickness)
-    inertia = mass * (np.asarray(bergs.width) ** 2 + np.asarray(bergs.thickness) ** 2) / 12.0
+    mass, inertia = mass_inertia(np.asarray(bergs.width), np.asarray(bergs.thickness), density_ratio)
     diag = np.stack([mass, mass, inertia], 1).reshape(-1)
-    th = np.asarray(bergs.theta, dtype=np.float64)
-    i = t[:, Bond.A].astype(np.int64)
-    j = t[:, Bond.B].astype(np.int64)
-    wall = j < 0
-    jj = np.where(wall, 0, j)
-    ca, sa, cb, sb = np.cos(th[i]), np.sin(th[i]), np.cos(th[jj]), np.sin(th[jj])
-    n = np.stack([ca * t[:, Bond.NU] - sa * t[:, Bond.NV], sa * t[:, Bond.NU] + ca * t[:, Bond.NV]], -1)
+    at = np.zeros(len(mass))  # the arms and the normal do not depend on where the bodies are
+    i, jj, wall, ra, n, rb, _ = world(t, at, at, np.asarray(bergs.theta, dtype=np.float64))
+    ra, n, rb = (np.stack(v, -1) for v in (ra, n, rb))
     sv = np.stack([-n[:, 1], n[:, 0]], -1)
-    ra = np.stack([ca * t[:, Bond.UA] - sa * t[:, Bond.VA], sa * t[:, Bond.UA] + ca * t[:, Bond.VA]], -1)
-    rb = np.stack([cb * t[:, Bond.UB] - sb * t[:, Bond.VB], sb * t[:, Bond.UB] + cb * t[:, Bond.VB]], -1)
     # d(d_n, d_s, dth) / d(x_A, z_A, th_A, x_B, z_B, th_B), (P, 3, 6); a wall is no body
     jac = np.zeros((len(t), 3, 6))
     for q, vec in enumerate((n, sv)):
@@ -384,18 +395,7 @@ def bond_energy(table: np.ndarray, bodies: dict, dt: float = 0.0) -> float:
         return 0.0
     t = t[on]
     x, z, th = (np.asarray(bodies[k], dtype=np.float64) for k in ("x", "z", "theta"))
-    i = t[:, Bond.A].astype(np.int64)
-    j = t[:, Bond.B].astype(np.int64)
-    ca, sa = np.cos(th[i]), np.sin(th[i])
-    rax = ca * t[:, Bond.UA] - sa * t[:, Bond.VA]
-    raz = sa * t[:, Bond.UA] + ca * t[:, Bond.VA]
-    nx = ca * t[:, Bond.NU] - sa * t[:, Bond.NV]
-    nz = sa * t[:, Bond.NU] + ca * t[:, Bond.NV]
-    wall = j < 0
-    jj = np.where(wall, 0, j)
-    cb, sb = np.cos(th[jj]), np.sin(th[jj])
-    pbx = np.where(wall, t[:, Bond.UB], x[jj] + cb * t[:, Bond.UB] - sb * t[:, Bond.VB])
-    pbz = np.where(wall, t[:, Bond.VB], z[jj] + sb * t[:, Bond.UB] + cb * t[:, Bond.VB])
+    i, jj, wall, (rax, raz), (nx, nz), (rbx, rbz), (pbx, pbz) = world(t, x, z, th)
     thb = np.where(wall, 0.0, th[jj])
     dx = pbx - (x[i] + rax)
     dz = pbz - (z[i] + raz)
@@ -411,8 +411,7 @@ def bond_energy(table: np.ndarray, bodies: dict, dt: float = 0.0) -> float:
     sx, sz = -nz, nx
     gx, gz = fn * nx + fs * sx, fn * nz + fs * sz
     ta = rax * gz - raz * gx - (t[:, Bond.KN] - t[:, Bond.KS]) * dn * ds + m
-    tb = -((pbx - x[jj]) * gz - (pbz - z[jj]) * gx) - m
-    tb = np.where(wall, 0.0, tb)
+    tb = np.where(wall, 0.0, -(rbx * gz - rbz * gx) - m)
     vbx, vbz, omb = (np.where(wall, 0.0, q[jj]) for q in (vx, vz, om))
     work = gx * (vx[i] - vbx) + gz * (vz[i] - vbz) + ta * om[i] + tb * omb
     return float(np.sum(u + 0.5 * dt * work))
