@@ -109,6 +109,11 @@ class Effect:
     ``torque``                                 True if ``force`` has a torque component
     ``horizontal``                             True if ``force`` has a horizontal component
                                                (only then does the kick touch ``VX``)
+    ``own_offset``                             True if the effect books itself what every change
+                                               of velocity after the kick, impulses included, does
+                                               to its energy as the step keeps it (the bonds'
+                                               ``bond_offset_work``): the impulses' half-kick
+                                               offset then leaves its force's kick out
     ``added_inertia(a, i) -> ti.Vector([m_a, I_a])``
                                                mass and moment of inertia added to the
                                                iceberg's own (the water it carries)
@@ -178,6 +183,7 @@ class Effect:
     terms: tuple[str, ...] = ()
     torque: bool = False
     horizontal: bool = False
+    own_offset: bool = False
     beyond_paper: bool = False
     table: Table | None = None
     config: tuple[Column, ...] = ()

@@ -4,7 +4,8 @@ Semi-implicit Euler, velocities first: ``v += dt F/m``, ``omega += dt tau/I`` fr
 forces of the effects named (:data:`..effects.FORCES`, summed in registry order), then each
 named damping term (:data:`..effects.DAMPERS`); after contacts, ``x += dt v`` and
 ``theta += dt omega``. When the scene has contacts the kick keeps its change of the
-velocities (``Body.KICK_VX``, ``KICK_VZ``, ``KICK_OM``) for the impulses' energy booking.
+velocities (``Body.KICK_VX``, ``KICK_VZ``, ``KICK_OM``) for the impulses' energy booking,
+less the kick of the forces whose effect books that share itself (``own_offset``: the bonds).
 The drift caches cos and sin of the new tilt (``Body.COS``, ``Body.SIN``), the one place a
 step evaluates trigonometric functions.
 """
@@ -17,6 +18,8 @@ from ..forms import fmath
 
 HAS_TORQUE = tuple(e for e in FORCES if e.torque)
 HORIZONTAL = tuple(e for e in FORCES if e.horizontal)
+OWN_OFFSET = tuple(e for e in FORCES if e.own_offset)
+assert all(e.horizontal and e.torque for e in OWN_OFFSET), "kick() leaves out all three components"
 
 
 def any_on(effects, fx) -> bool:
@@ -61,6 +64,7 @@ def kick(fx: ti.template(), a: ti.template(), i):
     fxs = 0.0
     fz = 0.0
     tau = 0.0
+    own = ti.Vector([0.0, 0.0, 0.0])  # the forces whose effect books its impulses' offset itself
     for e in ti.static(FORCES):
         if ti.static(e.on(fx)):
             f = e.force(a, i)  # (f_x, f_z, tau)
@@ -69,6 +73,8 @@ def kick(fx: ti.template(), a: ti.template(), i):
             fz += f[1]
             if ti.static(e.torque):
                 tau += f[2]
+            if ti.static(e.own_offset):
+                own += f
     if ti.static(any_on(HORIZONTAL, fx)):
         b[i, Body.VX] += dt * fxs / m
     if ti.static(any_on(FORCES, fx)):
@@ -86,6 +92,12 @@ def kick(fx: ti.template(), a: ti.template(), i):
         b[i, Body.KICK_VX] = b[i, Body.VX] - v0[0]
         b[i, Body.KICK_VZ] = b[i, Body.VZ] - v0[1]
         b[i, Body.KICK_OM] = b[i, Body.OM] - v0[2]
+        if ti.static(any_on(OWN_OFFSET, fx)):
+            # booked by that effect (bond_offset_work counts the impulses' change of velocity):
+            # counted here too, an impulse's offset was booked twice (docs/bonds.md, Energy)
+            b[i, Body.KICK_VX] -= dt * own[0] / m
+            b[i, Body.KICK_VZ] -= dt * own[1] / m
+            b[i, Body.KICK_OM] -= dt * own[2] / inertia
 
 
 @ti.func

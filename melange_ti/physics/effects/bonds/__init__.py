@@ -248,6 +248,7 @@ EFFECT = Effect(
     terms=("force", "after_kick", "damp", "post_drift", "joined", "joined_wall"),
     torque=True,
     horizontal=True,
+    own_offset=True,  # bond_offset_work: its share of every velocity change, impulses' too
     beyond_paper=True,
     table=TABLE,
     held=(
