@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from ..geometry import potential_energy, submerged_moments
+from ..geometry import mass_inertia, potential_energy, submerged_moments
 from ..scene.keys import DENSITY_RATIO
 
 
@@ -81,8 +81,7 @@ class PymunkMelange:
         self.width = np.asarray(state["width"], dtype=np.float64)
         self.thickness = np.asarray(state["thickness"], dtype=np.float64)
         self.n = len(self.width)
-        self.mass = density_ratio * self.width * self.thickness
-        self.inertia = self.mass * (self.width**2 + self.thickness**2) / 12.0
+        self.mass, self.inertia = mass_inertia(self.width, self.thickness, density_ratio)
         space = pymunk.Space()
         space.gravity = (0.0, -1.0)
         space.iterations = iterations
