@@ -1,16 +1,19 @@
 """What the waves effect costs per step: the paper scene (400 icebergs, the active state
 t = 45-55) without and with waves, side by side in one process, alternating; then what each
-part of the waves' step costs.
+part of a wave step costs.
 
     python benchmarks/waves_cost.py --csv benchmarks/results/waves/waves_cost.csv
 
 Each configuration: the shelf advanced to t = 45 in its own model, then ``--repeats`` timed
-blocks of ``--steps`` steps, the configurations alternating block by block. ``wave_dx`` 0.25
-(4,096 cells over 600 widths) and 0.3 (2,048 cells). Then the parts, on the default grid's
-model at t = 45 (after one more step, so that each iceberg's pose at the step's start is the
-last step's): each part alone in a kernel that runs it ``--part-reps`` times, serial as the
-step's serial form, alternating with a block of the paper's steps (best of ``--repeats``).
-Writes the CSV, ``waves_parts.csv`` beside it and a PNG of both.
+blocks of ``--steps`` steps (a whole number of wave steps), the configurations alternating
+block by block. With waves: the defaults (``wave_dx`` 0.25: 4,096 cells over 600 widths;
+``wave_dt`` 0.1: a wave step every ten time steps), ``wave_dx`` 0.3 (2,048 cells), and
+``wave_dt`` 0.01 (the grid and the coupling every time step, as before wave steps). Then the
+parts of a wave step, on the default grid's model with a wave step every time step (so every
+part runs at every call), at t = 45: each part alone in a kernel that runs it
+``--part-reps`` times, serial as the step's serial form, alternating with a block of the
+paper's steps (best of ``--repeats``). A run's waves cost about the parts' sum over the time
+steps per wave step. Writes the CSV, ``waves_parts.csv`` beside it and a PNG of both.
 """
 
 import argparse
@@ -35,10 +38,12 @@ def main() -> None:
     from melange_ti.scene import load
 
     paper = ["gravity", "buoyancy", "drag", "collisions", "wall"]
+    waves = [*paper, "waves"]
     configs = {
         "paper": [("scene.effects", paper)],
-        "paper + waves, wave_dx 0.25": [("scene.effects", [*paper, "waves"]), ("physics.wave_dx", 0.25)],
-        "paper + waves, wave_dx 0.3": [("scene.effects", [*paper, "waves"]), ("physics.wave_dx", 0.3)],
+        "paper + waves (defaults: wave_dx 0.25, wave_dt 0.1)": [("scene.effects", waves)],
+        "paper + waves, wave_dx 0.3": [("scene.effects", waves), ("physics.wave_dx", 0.3)],
+        "paper + waves, wave_dt 0.01 (every step)": [("scene.effects", waves), ("physics.wave_dt", 0.01)],
     }
     models = {}
     for name, sets in configs.items():
@@ -56,13 +61,14 @@ def main() -> None:
     base = min(times["paper"])
     with open(out, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["config", "wave_cells", "ms_per_step_best", "ms_per_step_median", "ratio_to_paper"])
+        w.writerow(["config", "wave_cells", "steps_per_wave_step", "ms_per_step_best", "ms_per_step_median", "ratio_to_paper"])
         for name, ts in times.items():
             ts = sorted(ts)
             w.writerow(
                 [
                     name,
                     models[name].effect("waves").cells if models[name].fx.waves else 0,
+                    models[name].effect("waves").every if models[name].fx.waves else 0,
                     f"{ts[0]:.4f}",
                     f"{ts[len(ts) // 2]:.4f}",
                     f"{ts[0] / base:.2f}",
@@ -70,7 +76,7 @@ def main() -> None:
             )
             print(f"{name}: best {ts[0]:.3f} ms/step, median {ts[len(ts) // 2]:.3f}, {ts[0] / base:.2f}x the paper's")
 
-    parts = _parts(ti, models["paper"], models["paper + waves, wave_dx 0.25"], a)
+    parts = _parts(ti, models["paper"], models["paper + waves, wave_dt 0.01 (every step)"], a)
     with open(out.with_name("waves_parts.csv"), "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["part", "ms_per_step_best", "ratio_to_paper_step"])
@@ -83,15 +89,15 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax, bx) = plt.subplots(2, 1, figsize=(10, 6), layout="constrained", height_ratios=(3, 7))
+    fig, (ax, bx) = plt.subplots(2, 1, figsize=(10, 6.5), layout="constrained", height_ratios=(4, 7))
     names = list(times)
-    ax.barh(names, [min(times[n]) for n in names], color=["0.5", "tab:blue", "tab:cyan"])
+    ax.barh(names, [min(times[n]) for n in names], color=["0.5", "tab:blue", "tab:cyan", "tab:red"][: len(names)])
     ax.set_xlabel("ms per step (best of the alternating blocks; serial form, 1 thread)", fontsize=9)
     ax.set_title("paper scene, 400 icebergs, t = 45-55: the cost of the waves effect", fontsize=9)
     names = list(parts)
     bx.barh(names, [parts[n] for n in names], color=["0.5"] + ["tab:blue"] * (len(names) - 1))
     bx.set_xlabel("ms per call (best of the alternating repeats)", fontsize=9)
-    bx.set_title("the waves' step part by part (wave_dx 0.25), against the paper's whole step", fontsize=9)
+    bx.set_title("a wave step part by part (wave_dx 0.25), against the paper's whole step", fontsize=9)
     for axis in (ax, bx):
         axis.invert_yaxis()
     fig.savefig(out.with_suffix(".png"), dpi=120)
@@ -107,8 +113,9 @@ def _block(ti, m, steps: int) -> float:
 
 
 def _parts(ti, paper, waves, a) -> dict[str, float]:
-    """ms per call of each part of the waves' step on ``waves`` (its state is spoilt after),
-    with the paper's step (``paper``) timed between them."""
+    """ms per call of each part of a wave step on ``waves`` (a wave step every time step:
+    each part runs at every call; its state is restored after), with the paper's step
+    (``paper``) timed between them."""
     from melange_ti.physics.data.schema import Arrays, Body
     from melange_ti.physics.effects.waves import coupling, grid
 
@@ -129,13 +136,13 @@ def _parts(ti, paper, waves, a) -> dict[str, float]:
     @ti.func
     def force(a: ti.template()):
         for i in range(a.b.shape[0]):
-            f = coupling.force(a, i)
-            a.b[i, Body.START_X] += 0.0 * (f[0] + f[1] + f[2])  # kept: the force is used
+            f = coupling.pressure(a, i)
+            a.b[i, Body.MOTION] += 0.0 * (f[0] + f[1] + f[2])  # kept: the force is used
 
     @ti.func
-    def deposit(a: ti.template()):
+    def displace(a: ti.template()):
         for i in range(a.b.shape[0]):
-            coupling.deposit(a, i)
+            coupling.displace(a, i, a.b[i, Body.X], a.b[i, Body.Z], 1.0)
 
     @ti.func
     def update(a: ti.template()):
@@ -154,18 +161,17 @@ def _parts(ti, paper, waves, a) -> dict[str, float]:
         grid.kick_grid(None, a)
 
     kernels = {
-        "force: the wave's pressure on each iceberg": kernel(force),
-        "deposit: the water each iceberg displaced": kernel(deposit),
+        "opening: the wave's pressure on each iceberg": kernel(force),
+        "opening and close: each iceberg's area per strip, once each": kernel(displace),
         "grid: G phi and the displaced water (a pair of filters)": kernel(update),
         "grid: the pressure surface (one filter)": kernel(pressure),
         "grid: the absorbing layer": kernel(sponge),
         "grid: phi's kick": kernel(kick),
     }
-    waves.advance(1)  # the icebergs' poses at the step's start: the last step's
+    assert waves.effect("waves").every == 1
     own = waves.arrays.own.to_numpy()
     bodies = waves.arrays.b.to_numpy()
-    # deposit first: force() overwrites the poses at the step's start with the current ones
-    order = ["deposit: the water each iceberg displaced", *(n for n in kernels if not n.startswith("deposit"))]
+    order = list(kernels)
     for name in order:
         kernels[name](1, *waves.arrays)
     waves.arrays.own.from_numpy(own)

@@ -32,6 +32,7 @@ from .physics.data.schema import (
     ACCUMULATORS,
     BODIES,
     BODY_INTS,
+    BODY_CARRIED,
     BODY_LEDGERS,
     CELLS,
     CONFIG,
@@ -329,6 +330,8 @@ class Model:
         by name, the run-wide accumulators (``acc``) and the counters (``counters``)."""
         rows = self._rows()
         out = {name: rows[:, col].copy() if col < rows.shape[1] else np.zeros(self.n) for name, col in BODY_LEDGERS.items()}
+        for name, col in BODY_CARRIED.items():  # an effect's per-body state without an output name
+            out[f"carried_{name}"] = rows[:, col].copy() if col < rows.shape[1] else np.zeros(self.n)
         out["acc"] = self.arrays.acc.to_numpy()
         out["counters"] = self.arrays.cnt.to_numpy()
         if self.owned is not None:  # the owning effect's whole table, under its name
@@ -340,6 +343,9 @@ class Model:
         for name, col in BODY_LEDGERS.items():
             if col < rows.shape[1]:
                 rows[:, col] = acc[name]
+        for name, col in BODY_CARRIED.items():
+            if col < rows.shape[1] and f"carried_{name}" in acc:  # a checkpoint from before it was added: zeros
+                rows[:, col] = acc[f"carried_{name}"]
         self.arrays.b.from_numpy(rows)
         self.arrays.acc.from_numpy(np.asarray(acc["acc"], dtype=np.float64))
         counters = np.zeros(COUNTERS.size, dtype=np.int64)

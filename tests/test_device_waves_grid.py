@@ -23,7 +23,8 @@ ROOT = Path(__file__).resolve().parents[1]
 TOLERANCE = 1e-12  # as tests/test_device.py's f64 runs: relative to the largest |eta|
 
 # one iceberg off its equilibrium in a sea lifted 0.01 w everywhere (the last 50 w an
-# absorbing layer), three steps; wave_dx 0.01 over 400 w makes the largest grid
+# absorbing layer), three steps; wave_dx 0.01 over 400 w makes the largest grid, whose
+# shortest waves need a wave step of one time step (wave_dt = dt)
 CHILD = """
 import sys
 import numpy as np
@@ -32,7 +33,7 @@ runtime.init(sys.argv[1], precision="f64")
 from melange_ti.model import Model
 from melange_ti.scene import loads
 text = ('[scene]\\neffects = ["gravity", "buoyancy", "waves"]\\n'
-        '[physics]\\nwave_end = 400.0\\nwave_sponge = 50.0\\nwave_dx = 0.01\\n'
+        '[physics]\\nwave_end = 400.0\\nwave_sponge = 50.0\\nwave_dx = 0.01\\nwave_dt = 0.02\\n'
         '[time]\\ndt = 0.02\\nduration = 0.06\\n[[iceberg]]\\nx = 100.0\\nz = -0.3\\n')
 m = Model(loads(text))
 m.effect("waves").set_surface(np.full(m.effect("waves").cells, 0.01))

@@ -5,11 +5,11 @@ Linear waves over depth ``H`` (g = rho_w = 1): a cosine mode ``eta = a cos(k x)`
 reflecting ends stands and oscillates at ``omega = sqrt(k tanh(k H))``; a packet of carrier
 ``k`` travels at the group velocity ``c_g = omega / (2 k) (1 + 2 k H / sinh(2 k H))``; the
 energy ``E_w = 1/2 int eta^2 + 1/2 int phi G phi`` is conserved but for the absorbing layer.
-The time stepping (symplectic Euler: ``phi -= dt eta``, then ``eta += dt G phi``) advances a
-mode released from rest as ``eta_n = a (cos(n th) + c sin(n th))`` with
-``cos th = 1 - (omega dt)^2 / 2`` and ``c = -(omega dt)^2 / (2 sin th)``: the analytic
-``a cos(omega t)`` but for a frequency error of ``(omega dt)^2 / 24`` relative and a phase lag
-of about ``omega dt / 2``.
+The grid steps once per wave step ``Dt = K dt`` (``wave_dt``, a multiple of ``dt``), by symplectic Euler
+(``phi -= Dt eta``, then ``eta += Dt G phi``), which advances a mode released from rest as
+``eta_n = a (cos(n th) + c sin(n th))`` after n wave steps, with ``cos th = 1 - (omega
+Dt)^2 / 2`` and ``c = -(omega Dt)^2 / (2 sin th)``: the analytic ``a cos(omega t)`` but for a
+frequency error of ``(omega Dt)^2 / 24`` relative and a phase lag of about ``omega Dt / 2``.
 """
 
 from __future__ import annotations
@@ -31,12 +31,20 @@ R = DENSITY_RATIO
 WAVES_ONLY = ["gravity", "buoyancy", "waves"]
 
 
-def basin(depth: float, length: float, dx: float, sponge: float = 0.0, dt: float = 0.01) -> Model:
+def basin(depth: float, length: float, dx: float, sponge: float = 0.0, dt: float = 0.01, every: int | None = None) -> Model:
     """A wave grid from x = 0 to ``length`` with one iceberg far beyond its end (so it feels
-    and moves no water): the waves alone."""
+    and moves no water): the waves alone, stepping every ``every`` time steps (None: the
+    default wave_dt)."""
     physics = {"water_depth": depth, "wave_dx": dx, "wave_end": length, "wave_sponge": sponge}
+    if every is not None:
+        physics["wave_dt"] = every * dt
     berg = {"x": length + 50.0, "z": -R * 1.0 + 0.5, "width": 1.0, "thickness": 1.0}
     return Model(make_scene(WAVES_ONLY, [berg], physics, dt=dt), mode="serial")
+
+
+def wave_step(model: Model) -> float:
+    """The wave step, ``Dt = K dt``."""
+    return model.scene.time.dt * model.effect("waves").every
 
 
 def omega(k: float, depth: float) -> float:
@@ -53,13 +61,15 @@ def test_grid_is_a_power_of_two_no_coarser_than_asked():
     assert waves_effect.cells_and_spacing(-2.0, 62.0, 0.125) == (512, 0.125)
 
 
-@pytest.mark.parametrize("kh", [0.2, 1.0, 3.0, 6.0])
-def test_standing_wave_oscillates_at_the_finite_depth_frequency(kh):
+@pytest.mark.parametrize("kh, every", [(0.2, None), (1.0, None), (3.0, None), (6.0, None), (1.0, 1), (6.0, 3)])
+def test_standing_wave_oscillates_at_the_finite_depth_frequency(kh, every):
     """A cosine mode of the basin, over a quarter, a half and a whole period of the analytic
-    frequency: its amplitude is the time stepping's exact solution for omega^2 = g k tanh(k H)
-    within 1e-9 of the start, and cos(omega t) within the stepping's lag, omega dt."""
+    frequency (rounded to whole wave steps): its amplitude is the time stepping's exact
+    solution for omega^2 = g k tanh(k H) with the wave step Dt within 1e-9 of the start, and
+    cos(omega t) within the stepping's lag, omega Dt; the default wave step, one time step,
+    and three."""
     depth, length = 2.0, 64.0
-    model = basin(depth, length, 0.125)
+    model = basin(depth, length, 0.125, every=every)
     mode = round(kh / depth * length / math.pi)
     k = mode * math.pi / length
     x = model.effect("waves").x()
@@ -67,11 +77,12 @@ def test_standing_wave_oscillates_at_the_finite_depth_frequency(kh):
     a0 = 0.01
     model.effect("waves").set_surface(a0 * shape)
     w = omega(k, depth)
-    dt = model.scene.time.dt
+    dt = wave_step(model)
+    per = model.effect("waves").every
     done = 0
     for frac in (0.25, 0.5, 1.0):
-        steps = round(frac * 2 * math.pi / w / dt)
-        model.advance(steps - done)
+        steps = round(frac * 2 * math.pi / w / dt)  # wave steps
+        model.advance(per * (steps - done))
         done = steps
         eta = model.effect("waves").surface()["eta"]
         amp = float(eta @ shape / (shape @ shape))
@@ -84,9 +95,9 @@ def test_standing_wave_oscillates_at_the_finite_depth_frequency(kh):
 
 
 def modified_energy(model: Model) -> float:
-    """``E_w - dt/2 rho int eta G phi``: what symplectic Euler conserves exactly on the waves alone."""
+    """``E_w - Dt/2 rho int eta G phi``: what symplectic Euler conserves exactly on the waves alone."""
     s = model.effect("waves").surface()
-    return model.effect("waves").energy() - 0.5 * model.scene.time.dt * model.effect("waves").dx * float(
+    return model.effect("waves").energy() - 0.5 * wave_step(model) * model.effect("waves").dx * float(
         np.dot(s["eta"], s["g_phi"])
     )
 
@@ -98,10 +109,13 @@ def test_energy_is_conserved_between_reflecting_ends_to_first_order_in_dt():
     E_w never drifts: H holds to rounding. E_w itself wanders by ``dt/2 int eta G phi``, at
     most ``dt/2 sum_m omega_m E_m`` (``|e w^2 p| <= omega (e^2 + w^2 p^2) / 2`` per mode):
     a bound of first order in dt, computed from the hump's spectrum (its energy-weighted
-    frequency is ~0.6), which halving dt halves."""
-    spread = []
+    frequency is ~0.6), which halving dt halves. dt is the wave step: 4 and 2 time steps of 0.01.
+    The diagnostic ``wave_energy`` (``energy_now``: ``phi`` half a kick on, at the grid's
+    time) is ``H + dt^2/8 rho int eta G eta``: its wander is second order, a quarter when dt
+    halves (at most 0.3), and at dt = 0.04 under a tenth of E_w's."""
+    spread, spread_now = [], []
     for dt in (0.04, 0.02):
-        model = basin(3.0, 40.0, 0.125, dt=dt)
+        model = basin(3.0, 40.0, 0.125, every=round(dt / 0.01))
         x = model.effect("waves").x()
         eta0 = 0.02 * np.exp(-(((x - 13.0) / 1.5) ** 2))
         model.effect("waves").set_surface(eta0)
@@ -121,16 +135,21 @@ def test_energy_is_conserved_between_reflecting_ends_to_first_order_in_dt():
         # the modes' energies E_m(t) stay within 1 / (1 - omega_m dt / 2) of their modified ones
         wander = 0.5 * dt * float(np.sum(w * modes / (1 - 0.5 * w * dt))) / e0
 
-        energies, invariant = [], []
+        energies, invariant, now = [], [], []
+        now0 = model.effect("waves").energy_now()
         for _ in range(60):  # 60 time units: several crossings of the basin
-            model.advance(round(1.0 / dt))
+            model.advance(100)  # t = 1: a whole number of wave steps
             energies.append(model.effect("waves").energy())
             invariant.append(modified_energy(model))
+            now.append(model.effect("waves").energy_now())
+        spread_now.append(float(np.max(np.abs(np.array(now) / now0 - 1))))
         dev = np.abs(np.array(energies) / e0 - 1)
         spread.append(dev.max())
         assert np.max(np.abs(np.array(invariant) / e0 - 1)) < 1e-11, dt  # no drift: the invariant holds to rounding
         assert dev.max() <= wander, (dt, dev.max(), wander)
     assert spread[1] <= 0.6 * spread[0], spread
+    assert spread_now[1] <= 0.3 * spread_now[0], spread_now
+    assert spread_now[0] <= 0.1 * spread[0], (spread_now, spread)
 
 
 def test_packet_travels_at_the_group_velocity():
@@ -199,14 +218,18 @@ WITH_ADDED_MASS = ["gravity", "buoyancy", "added_mass", "waves"]
 @pytest.fixture(scope="module")
 def heaves():
     """The block of thickness 1 lifted 0.05 w, heaving for 40 time units in the waves: its
-    height above equilibrium every 0.05 and the model at the end, keyed by (effects, pressure
-    depth); and linear potential-flow theory's free decay of it (tests/physics/test_radiation.py)."""
+    height above equilibrium every wave step (0.1: between them the heave carries the
+    ripple of the wave steps' kicks, which would read as maxima) and the model at the end,
+    keyed by (effects, pressure depth); and linear potential-flow theory's free decay of it
+    (tests/physics/test_radiation.py)."""
     runs = {}
     for effects, depth in ((WAVES_ONLY, 0.0), (WAVES_ONLY, 1.0), (WITH_ADDED_MASS, 1.0)):
         moving = heaving(effects, depth=depth)
+        every = moving.effect("waves").every
+        assert every == 10  # the default wave_dt, 0.1
         t, z = [], []
-        for step in range(5, 4001, 5):
-            moving.advance(5)
+        for step in range(every, 4001, every):
+            moving.advance(every)
             t.append(step * 0.01)
             z.append(float(moving.state()["z"][0]) - (-R + 0.5))
         runs[tuple(effects), depth] = (np.array(t), np.array(z), moving)
@@ -288,9 +311,10 @@ def test_capsize_budget_closes_with_waves():
 
 
 def test_waves_are_bit_identical_across_kernel_forms():
-    """A colliding shelf with waves: the serial form, the parallel form with one and with
-    three groups, and with islands, give the same bits (state, surface, ledgers)."""
-    bergs = [{"x": 0.8 + 1.2 * q, "z": -R * 1.4 + 0.7, "theta": 0.05 * (-1) ** q, "vx": 0.3 * (-1) ** q} for q in range(12)]
+    """A shelf driven against the wall with waves (collisions and overlap corrections): the
+    serial form, the parallel form with one and with three groups, and with islands, give the
+    same bits (state, surface, ledgers)."""
+    bergs = [{"x": 0.75 + 1.3 * q, "z": -R * 1.4 + 0.7, "theta": 0.15 * (-1) ** q, "vx": -0.6} for q in range(12)]
     physics = {"wave_end": 40.0, "wave_sponge": 10.0, "wave_dx": 0.125}
     sc = make_scene(["gravity", "buoyancy", "drag", "collisions", "wall", "waves"], bergs, physics)
     results = []
@@ -303,6 +327,7 @@ def test_waves_are_bit_identical_across_kernel_forms():
         )
     s0, eta0, t0 = results[0]
     assert np.max(np.abs(eta0)) > 1e-4  # the surface moved
+    assert t0[1] != 0  # the overlap correction pushed
     for s, eta, tot in results[1:]:
         for k in s0:
             assert s[k].tobytes() == s0[k].tobytes(), k
@@ -339,6 +364,8 @@ def test_fused_sampling_with_waves_gives_the_unfused_samples():
         ({"water_depth": -2.0}, "physics.water_depth"),
         ({"water_depth": 1.0}, "physics.wave_pressure_depth"),  # at the default pressure depth: both named
         ({"wave_end": 1e6, "wave_dx": 0.01}, "physics.wave_dx"),
+        ({"wave_dt": 0.0}, "physics.wave_dt"),
+        ({"wave_dt": -0.1}, "physics.wave_dt"),
     ],
 )
 def test_wave_keys_are_checked(physics, key):
@@ -370,15 +397,46 @@ def test_checkpoint_keeps_the_sea_and_resumes_bit_for_bit():
     assert resumed.totals().wave_absorbed == whole.totals().wave_absorbed
 
 
+def test_checkpoint_in_the_middle_of_a_wave_step_with_contacts_resumes_bit_for_bit():
+    """Icebergs driven against the wall with waves, stopped half way through a wave step (235
+    steps: the wave step opened 5 steps before, its water taken out, the overlap
+    correction's pushes since then carried per iceberg): a fresh model loaded from what a
+    checkpoint keeps goes on as the uninterrupted run, bit for bit; and there were pushes to
+    keep."""
+    bergs = [{"x": 0.75 + 1.3 * q, "z": -R * 1.4 + 0.7, "theta": 0.15 * (-1) ** q, "vx": -0.6} for q in range(12)]
+    physics = {"wave_end": 40.0, "wave_sponge": 10.0, "wave_dx": 0.125}
+    sc = make_scene(["gravity", "buoyancy", "drag", "collisions", "wall", "waves"], bergs, physics)
+    whole, model = Model(sc, mode="serial"), Model(sc, mode="serial")
+    whole.advance(300)
+    model.advance(235)
+    state, acc = model.state(), model.accumulators()
+    assert np.any(acc["carried_PUSH_X"] != 0) and model.totals().correction_work != 0
+    resumed = Model(sc, mode="serial")
+    resumed.set_state(state)
+    resumed.set_accumulators(acc)
+    resumed.advance(65)
+    for k, v in whole.state().items():
+        assert resumed.state()[k].tobytes() == v.tobytes(), k
+    assert resumed.effect("waves").surface()["eta"].tobytes() == whole.effect("waves").surface()["eta"].tobytes()
+    assert resumed.totals() == whole.totals()
+
+
 def test_a_grid_too_fine_for_the_time_step_is_refused():
-    """The shortest wave of the grid must be one the time step can follow (omega_max dt <= 1):
-    wave_dx = 0.125 (k = 25, omega = 5) is refused at dt = 0.5 and accepted at dt = 0.1."""
+    """The shortest wave of the grid must be one the wave step can follow (omega_max Dt <= 1):
+    wave_dx = 0.125 (k = 25, omega = 5) is refused at dt = 0.5 (no wave_every helps: the
+    message names wave_dx and dt) and accepted at dt = 0.1 with wave_dt = 0.1; the default
+    wave_dt (0.1) at dt = 0.01 is accepted, and wave_dt = 0.3 refused, naming it."""
     berg = {"x": 5.0, "z": -R * 1.4 + 0.7}
     physics = {"wave_dx": 0.125, "wave_end": 64.0, "wave_sponge": 8.0}
     with pytest.raises(SceneError) as err:
         make_scene(WAVES_ONLY, [berg], physics, dt=0.5)
     assert "physics.wave_dx" in str(err.value) and "time.dt" in str(err.value) and "\n" not in str(err.value)
     make_scene(WAVES_ONLY, [berg], physics, dt=0.1)
+    make_scene(WAVES_ONLY, [berg], physics, dt=0.01)
+    with pytest.raises(SceneError) as err:
+        make_scene(WAVES_ONLY, [berg], {**physics, "wave_dt": 0.3}, dt=0.01)
+    assert str(err.value).startswith("physics.wave_dt = 0.3:") and "smaller wave_dt" in str(err.value)
+    assert "\n" not in str(err.value)
 
 
 def test_run_file_keeps_the_surface_and_the_movie_draws_it(tmp_path):

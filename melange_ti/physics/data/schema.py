@@ -452,6 +452,8 @@ STATE_NAMES = ("x", "z", "theta", "vx", "vz", "omega")  # the file's order (docs
 assert sorted(BODIES.outputs("state")) == sorted(STATE_NAMES)
 CONSTANTS = tuple(BODIES.outputs("constant"))  # /icebergs: width, thickness, mass, inertia
 BODY_LEDGERS = BODIES.outputs("ledger")  # per-body ledgers, summed into a diagnostic
+# an effect's per-body state with no output name: carried from step to step (checkpoints keep it)
+BODY_CARRIED = {c.name: k for k, c in enumerate(BODIES.columns) if c.role == "state" and not c.output}
 ACC_LEDGERS = ACCUMULATORS.outputs("ledger")
 # energy ledgers close the budget: E(0) - E(t) = their sum (marked ``budget`` in the tables)
 ENERGY_LEDGERS = tuple(c.output for t in (BODIES, ACCUMULATORS) for c in t.columns if c.budget)

@@ -1,5 +1,7 @@
-"""The waves' coupling to the icebergs: the wave's pressure on each (the ``force`` term) and the
-water each displaces into the grid (the ``post_drift`` term), from its submerged part
+"""The waves' coupling to the icebergs, once per wave step: when it opens, the wave's pressure
+on each (the ``force`` term, as a kick of the wave step) and its submerged area taken out of
+the source column; when it closes, its submerged area put back (:func:`close_all`), so the
+water gets what each displaced over the wave step. Both from the iceberg's submerged part
 strip by strip (:mod:`melange_ti.physics.effects.waves` has the physics)."""
 
 import taichi as ti
@@ -7,7 +9,7 @@ import taichi as ti
 from ...data.schema import Body, Param
 from ...numerics import FAR
 from . import SUB, Wave
-from .grid import cells
+from .grid import cells, closes, every, opens
 
 
 @ti.func
@@ -171,18 +173,28 @@ def eta_at(a: ti.template(), q):
 
 @ti.func
 def force(a: ti.template(), i):
+    """The wave's pressure on iceberg i beyond its still-water buoyancy, ``(f_x, f_z, tau)``,
+    times K when a wave step opens (the kick of the wave step, ``Dt = K dt``), else 0; at the
+    opening its submerged area also leaves the source column (:func:`displace`)."""
+    f = ti.Vector([0.0, 0.0, 0.0])
+    if opens(a):
+        f = pressure(a, i) * (every(a) * 1.0)
+        b = ti.static(a.b)
+        displace(a, i, b[i, Body.X], b[i, Body.Z], -1.0)
+        b[i, Body.PUSH_X] = 0.0
+        b[i, Body.PUSH_Z] = 0.0
+    return f
+
+
+@ti.func
+def pressure(a: ti.template(), i):
     """The wave's pressure on iceberg i beyond its still-water buoyancy, ``(f_x, f_z, tau)``:
     minus the gradient over the pose of ``rho g sum_q eta_q A_q``, ``A_q`` the iceberg's
     submerged area in strip q (:mod:`melange_ti.physics.effects.waves`). Per strip from a to b:
     ``dA/dx_G = h(a) - h(b)``, ``dA/dz_G = -L`` (the waterline's length in it),
-    ``dA/dtheta = M1(b) - M1(a) - int_L (x - x_G) dx``. Also keeps the pose at the step's
-    start, for :func:`deposit`."""
+    ``dA/dtheta = M1(b) - M1(a) - int_L (x - x_G) dx``."""
     b = ti.static(a.b)
     xc, zc, c, s = b[i, Body.X], b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN]
-    b[i, Body.START_X] = xc
-    b[i, Body.START_Z] = zc
-    b[i, Body.START_C] = c
-    b[i, Body.START_S] = s
     hw, hh = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK]
     wl = a.par[Param.WATER]
     ext = extent(c, s, hw, hh)
@@ -206,34 +218,31 @@ def force(a: ti.template(), i):
 
 
 @ti.func
-def deposit(a: ti.template(), i):
-    """After the drift: the water iceberg i displaced, its submerged area in each strip now
-    minus at the step's start (exactly what the interaction ``rho g sum_q eta_q A_q``, whose
-    gradient the kick used, changed by), spread to the cells with the interpolation's
-    weights. Each share is rounded to a multiple of ``Param.WAVE_Q``: such sums are exact,
-    so the cells' totals do not depend on the order of the additions."""
+def displace(a: ti.template(), i, xc, zc, sign):
+    """Iceberg i's submerged area in each strip with its centre at (xc, zc) and its tilt now,
+    times ``sign``, added to the source column (``Wave.SRC``) with the interpolation's
+    weights: taken out when a wave step opens (``-1``, at its pose), put back when it closes
+    (``+1``, at the pose its drifts reached), so the column then holds what the iceberg's
+    drifts displaced over the wave step (what the interaction ``rho g sum_q eta_q A_q``,
+    whose gradient the kick used, changed by along them). Each share is rounded to a
+    multiple of ``Param.WAVE_Q``: such sums are exact, so the cells' totals do not depend on
+    the order of the additions."""
     b = ti.static(a.b)
     wv = ti.static(a.own)
     hw, hh = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK]
     wl = a.par[Param.WATER]
     quantum = a.par[Param.WAVE_Q]
     per_quantum = 1.0 / quantum  # exact (a power of 2): v * per_quantum is v / quantum, without a division per strip
-    inv_dx = 1.0 / a.par[Param.WAVE_DX]
-    x1, z1, c1, s1 = b[i, Body.X], b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN]
-    x0, z0, c0, s0 = b[i, Body.START_X], b[i, Body.START_Z], b[i, Body.START_C], b[i, Body.START_S]
-    e1 = extent(c1, s1, hw, hh)
-    e0 = extent(c0, s0, hw, hh)
-    lo, hi = strips(a, ti.min(x1 - e1, x0 - e0), ti.max(x1 + e1, x0 + e0))
-    px1, pz1, n1 = submerged(x1, z1, c1, s1, hw, hh, wl)
-    px0, pz0, n0 = submerged(x0, z0, c0, s0, hw, hh, wl)
-    lo1, hi1, h1, sl1, sg1 = edges(px1, pz1, n1, wl)
-    lo0, hi0, h0, sl0, sg0 = edges(px0, pz0, n0, wl)
-    xa = edge_x(a, lo)
-    left = area_left_of(lo1, hi1, h1, sl1, sg1, xa) - area_left_of(lo0, hi0, h0, sl0, sg0, xa)
+    scale = sign / a.par[Param.WAVE_DX]
+    c, s = b[i, Body.COS], b[i, Body.SIN]
+    ext = extent(c, s, hw, hh)
+    lo, hi = strips(a, xc - ext, xc + ext)
+    px, pz, n = submerged(xc, zc, c, s, hw, hh, wl)
+    e_lo, e_hi, e_h, e_sl, e_sg = edges(px, pz, n, wl)
+    left = area_left_of(e_lo, e_hi, e_h, e_sl, e_sg, edge_x(a, lo))
     for k in range(lo, hi + 1):
-        xb = edge_x(a, k + 1)
-        right = area_left_of(lo1, hi1, h1, sl1, sg1, xb) - area_left_of(lo0, hi0, h0, sl0, sg0, xb)
-        v = (right - left) * inv_dx
+        right = area_left_of(e_lo, e_hi, e_h, e_sl, e_sg, edge_x(a, k + 1))
+        v = (right - left) * scale
         left = right
         if v != 0:
             j0, j1, w1 = weights(a, k)
@@ -243,3 +252,18 @@ def deposit(a: ti.template(), i):
                 ti.atomic_add(wv[j0, Wave.SRC], share0)
             if share1 != 0:
                 ti.atomic_add(wv[j1, Wave.SRC], share1)
+
+
+@ti.func
+def close_all(fx: ti.template(), a: ti.template()):
+    """After every step's overlap correction: each iceberg's pushes added to those since the
+    wave step opened; when a wave step closes, its submerged area put back in the source
+    column at its pose less those pushes (a parallel loop over the icebergs)."""
+    b = ti.static(a.b)
+    last = closes(a)
+    for i in range(a.b.shape[0]):
+        if ti.static(fx.collisions or fx.wall):
+            b[i, Body.PUSH_X] += b[i, Body.SHIFT_X]  # the correction's pushes this step
+            b[i, Body.PUSH_Z] += b[i, Body.SHIFT_Z]
+        if last:
+            displace(a, i, b[i, Body.X] - b[i, Body.PUSH_X], b[i, Body.Z] - b[i, Body.PUSH_Z], 1.0)

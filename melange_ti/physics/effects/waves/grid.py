@@ -1,4 +1,5 @@
-"""The wave grid's kernels: its step (``eta += dt G phi + q``, the absorbing layer) and ``phi``'s kick.
+"""The wave grid's kernels: its step (``eta += Dt G phi + q``, the absorbing layer) and ``phi``'s kick,
+once per wave step (``Dt = K dt``, ``K = wave_every``).
 
 The physics and its discrete form are in :mod:`melange_ti.physics.effects.waves`. The grid's
 step applies ``G`` through a cosine transform (DCT-II, and DCT-III back) done as a complex FFT
@@ -12,6 +13,12 @@ takes transforms of ``M / 2`` points, its cells packed two to a complex number
 (:func:`apply_filter`). Twiddles, the bit reversal and the operators' symbols are computed
 once on the host (:mod:`.host`), so no kernel evaluates a trigonometric function. The grid is
 the effect's table, ``a.own`` (namespace :class:`Wave`), one row per cell.
+
+A wave step opens at the step when ``Wave.PHASE`` (row 0) is 0 (:func:`opens`: ``phi``'s kick
+and the icebergs', :mod:`.coupling`) and closes after the step when it is ``K - 1``
+(:func:`closes`: the grid's step); the grid's step ends by advancing the phase. Every loop
+of a part that a step may skip runs ``0`` times on the other steps (its count times the
+gate), never under an ``if`` around it: a loop inside a branch would run on one thread.
 """
 
 import taichi as ti
@@ -29,24 +36,54 @@ def cells(a: ti.template()):
 
 
 @ti.func
+def every(a: ti.template()):
+    """Time steps per wave step, K."""
+    return ti.cast(a.cfg[Config.WAVE_EVERY], ti.i32)
+
+
+@ti.func
+def phase(a: ti.template()):
+    """Time steps since the last wave step closed."""
+    return ti.cast(a.own[0, Wave.PHASE], ti.i32)
+
+
+@ti.func
+def opens(a: ti.template()):
+    """1 if this step opens a wave step (the kicks), else 0."""
+    return ti.cast(phase(a) == 0, ti.i32)
+
+
+@ti.func
+def closes(a: ti.template()):
+    """1 if this step closes a wave step (the grid's step), else 0."""
+    return ti.cast(phase(a) == every(a) - 1, ti.i32)
+
+
+@ti.func
+def wave_dt(a: ti.template()):
+    """The wave step, ``Dt = K dt``."""
+    return a.par[Param.DT] * every(a)
+
+
+@ti.func
 def quantize(v, quantum):
     return ti.floor(v / quantum + 0.5) * quantum
 
 
 # ---------------------------------------------------------------- the grid's step
 @ti.func
-def _fft(a: ti.template(), re: ti.template(), im: ti.template(), sign, half: ti.template(), parallel: ti.template()):
+def _fft(a: ti.template(), re: ti.template(), im: ti.template(), sign, half: ti.template(), parallel: ti.template(), on):
     """The radix-2 FFT's butterfly passes on columns re, im (bit-reversed input), two at a
     time (:func:`_two_passes`), the last alone when their count is odd: of M points, or of
-    M / 2 with ``half`` (the same twiddles, every other one)."""
+    M / 2 with ``half`` (the same twiddles, every other one). No loop runs when ``on`` is 0."""
     if ti.static(parallel):
         for q in ti.static(range(MAX_LOG // 2)):
-            _two_passes(a, 2 * q + 1, re, im, sign, half)
-        _last_pass(a, re, im, sign, half)
+            _two_passes(a, 2 * q + 1, re, im, sign, half, on)
+        _last_pass(a, re, im, sign, half, on)
     else:
         for q in range(_passes(a, half) // 2):
-            _two_passes(a, 2 * q + 1, re, im, sign, half)
-        _last_pass(a, re, im, sign, half)
+            _two_passes(a, 2 * q + 1, re, im, sign, half, on)
+        _last_pass(a, re, im, sign, half, on)
 
 
 @ti.func
@@ -68,7 +105,7 @@ def _butterfly(a: ti.template(), k, sign, r0, i0, r1, i1):
 
 
 @ti.func
-def _two_passes(a: ti.template(), st, re: ti.template(), im: ti.template(), sign, half: ti.template()):
+def _two_passes(a: ti.template(), st, re: ti.template(), im: ti.template(), sign, half: ti.template(), on):
     """Passes ``st`` and ``st + 1`` (1-based) of the radix-2 FFT in place on columns re, im,
     fused: each iteration loads four elements, makes the two butterflies of each pass on them
     and stores them (the same arithmetic as pass by pass, half the loads and stores). No loop
@@ -78,7 +115,7 @@ def _two_passes(a: ti.template(), st, re: ti.template(), im: ti.template(), sign
     log = ti.cast(a.cfg[Config.WAVE_LOG], ti.i32)
     bits = _passes(a, half)
     count = (1 << bits) // 4 if st + 1 <= bits else 0
-    for t in range(count):
+    for t in range(count * on):
         h = 1 << (st - 1)
         pos = t & (h - 1)
         j0 = ((t >> (st - 1)) << (st + 1)) + pos
@@ -93,14 +130,14 @@ def _two_passes(a: ti.template(), st, re: ti.template(), im: ti.template(), sign
 
 
 @ti.func
-def _last_pass(a: ti.template(), re: ti.template(), im: ti.template(), sign, half: ti.template()):
+def _last_pass(a: ti.template(), re: ti.template(), im: ti.template(), sign, half: ti.template(), on):
     """The last pass of the radix-2 FFT alone, when the passes are odd in number (no loop
     when they are even)."""
     wv = ti.static(a.own)
     log = ti.cast(a.cfg[Config.WAVE_LOG], ti.i32)
     bits = _passes(a, half)
     count = (1 << bits) // 2 if bits & 1 else 0
-    for t in range(count):
+    for t in range(count * on):
         j0 = t
         j1 = t + (1 << (bits - 1))
         r0, i0, r1, i1 = _butterfly(a, t << (log - bits), sign, wv[j0, re], wv[j0, im], wv[j1, re], wv[j1, im])
@@ -126,6 +163,7 @@ def apply_filters(
     sym2: ti.template(),
     dst2: ti.template(),
     parallel: ti.template(),
+    on,
 ):
     """``dst1 = F1 src1`` and ``dst2 = F2 src2`` for filters diagonal in the grid's cosine
     modes (their values per mode, with the transforms' scale, in columns ``sym1``, ``sym2``),
@@ -136,15 +174,15 @@ def apply_filters(
     as real and imaginary parts, back. Modes m and M - m are taken in one iteration.
     ``parallel``: every butterfly pass a loop of its own at the kernel's top level (unrolled
     up to the longest transform); else a loop over the passes, for a serial caller (the same
-    arithmetic, far less code to compile)."""
+    arithmetic, far less code to compile). No loop runs when ``on`` is 0."""
     wv = ti.static(a.own)
     m = cells(a)
-    for j in range(m):
+    for j in range(m * on):
         r = ti.cast(wv[_makhoul(j, m), Wave.REV], ti.i32)
         wv[r, Wave.RE] = wv[j, src1]
         wv[r, Wave.IM] = wv[j, src2]
-    _fft(a, Wave.RE, Wave.IM, 1.0, False, parallel)
-    for mode in range(m // 2 + 1):
+    _fft(a, Wave.RE, Wave.IM, 1.0, False, parallel, on)
+    for mode in range((m // 2 + 1) * on):
         other = (m - mode) & (m - 1)
         zr, zi, yr, yi = wv[mode, Wave.RE], wv[mode, Wave.IM], wv[other, Wave.RE], wv[other, Wave.IM]
         cr, ci = wv[mode, Wave.CR], wv[mode, Wave.CI]
@@ -168,31 +206,31 @@ def apply_filters(
             ro = ti.cast(wv[other, Wave.REV], ti.i32)
             wv[ro, Wave.QR] = ci * vr - cr * vi
             wv[ro, Wave.QI] = ci * vi + cr * vr
-    _fft(a, Wave.QR, Wave.QI, -1.0, False, parallel)
-    for j in range(m):
+    _fft(a, Wave.QR, Wave.QI, -1.0, False, parallel, on)
+    for j in range(m * on):
         n = _makhoul(j, m)
         wv[j, dst1] = wv[n, Wave.QR]
         wv[j, dst2] = wv[n, Wave.QI]
 
 
 @ti.func
-def apply_filter(a: ti.template(), src: ti.template(), sym: ti.template(), dst: ti.template(), parallel: ti.template()):
+def apply_filter(a: ti.template(), src: ti.template(), sym: ti.template(), dst: ti.template(), parallel: ti.template(), on):
     """``dst = F src`` for one filter diagonal in the grid's cosine modes (as
     :func:`apply_filters`), through FFTs of M / 2 points: the M cells in Makhoul's order ``v``
     packed as ``v_2n + i v_2n+1``, transformed, the M-point spectrum of ``v`` taken apart
     from it (the real input's split), twisted, filtered and put back as the spectrum of the
     output in the same order, folded to M / 2 points the same way (the real output's
     merge), back. Modes k, M - k, M/2 + k and M/2 - k are taken in one iteration: half the
-    work of a pair of filters for one."""
+    work of a pair of filters for one. No loop runs when ``on`` is 0."""
     wv = ti.static(a.own)
     m = cells(a)
     n = m >> 1
-    for q in range(n):
+    for q in range(n * on):
         r = ti.cast(wv[q, Wave.REV], ti.i32) >> 1  # q's log2(M/2) bits reversed
         wv[r, Wave.RE] = wv[_cell(2 * q, m), src]
         wv[r, Wave.IM] = wv[_cell(2 * q + 1, m), src]
-    _fft(a, Wave.RE, Wave.IM, 1.0, True, parallel)
-    for k in range(n // 2 + 1):
+    _fft(a, Wave.RE, Wave.IM, 1.0, True, parallel, on)
+    for k in range((n // 2 + 1) * on):
         o = (n - k) & (n - 1)
         zr, zi, yr, yi = wv[k, Wave.RE], wv[k, Wave.IM], wv[o, Wave.RE], wv[o, Wave.IM]
         # the even and odd elements' transforms, E = (Z_k + conj Z_-k) / 2 and O = (Z_k - conj Z_-k) / 2i,
@@ -229,8 +267,8 @@ def apply_filter(a: ti.template(), src: ti.template(), sym: ti.template(), dst: 
             ro = ti.cast(wv[o, Wave.REV], ti.i32) >> 1
             wv[ro, Wave.QR] = br + ar + fi
             wv[ro, Wave.QI] = -bi - ai - fr
-    _fft(a, Wave.QR, Wave.QI, -1.0, True, parallel)
-    for j in range(m):
+    _fft(a, Wave.QR, Wave.QI, -1.0, True, parallel, on)
+    for j in range(m * on):
         p = _makhoul(j, m)
         v = wv[p >> 1, Wave.QR]
         if p & 1:
@@ -251,34 +289,42 @@ def _cell(p, m):
 def refresh(a: ti.template()):
     """What the step keeps from the grid's state: ``G PHI`` and the surface at the depth of
     the icebergs' pressure, ``ETA_P = A ETA`` (at a kernel's top level: every loop parallel)."""
-    apply_filters(a, Wave.PHI, Wave.KT, Wave.GPHI, Wave.ETA, Wave.AT, Wave.ETA_P, True)
+    apply_filters(a, Wave.PHI, Wave.KT, Wave.GPHI, Wave.ETA, Wave.AT, Wave.ETA_P, True, 1)
 
 
 @ti.func
 def kick_grid(fx: ti.template(), a: ti.template()):
-    """``phi -= dt g eta`` (with the icebergs' kick: both from the step's start)."""
+    """``phi -= Dt g eta`` when a wave step opens (with the icebergs' kick: both from the
+    surface at its opening)."""
     wv = ti.static(a.own)
-    dt = a.par[Param.DT]
-    for j in range(cells(a)):
+    dt = wave_dt(a)
+    for j in range(cells(a) * opens(a)):
         wv[j, Wave.PHI] -= dt * wv[j, Wave.ETA]
 
 
 @ti.func
 def _update(a: ti.template(), parallel: ti.template()):
-    """``eta += dt G phi + A q``: the displaced water enters as it was taken, through the
-    depth filter ``A``; cleared for the next step."""
-    apply_filters(a, Wave.PHI, Wave.KT, Wave.GPHI, Wave.SRC, Wave.AT, Wave.SRC_P, parallel)
+    """``eta += Dt G phi + A q`` when a wave step closes: the displaced water enters as it
+    was taken, through the depth filter ``A``; cleared for the next wave step."""
+    on = closes(a)
+    apply_filters(a, Wave.PHI, Wave.KT, Wave.GPHI, Wave.SRC, Wave.AT, Wave.SRC_P, parallel, on)
     wv = ti.static(a.own)
-    dt = a.par[Param.DT]
-    for j in range(cells(a)):
+    dt = wave_dt(a)
+    for j in range(cells(a) * on):
         wv[j, Wave.ETA] += dt * wv[j, Wave.GPHI] + wv[j, Wave.SRC_P]
         wv[j, Wave.SRC] = 0.0
 
 
 @ti.func
 def _pressure_surface(a: ti.template(), parallel: ti.template()):
-    """``ETA_P = A ETA`` for the next step's kick."""
-    apply_filter(a, Wave.ETA, Wave.AT, Wave.ETA_P, parallel)
+    """``ETA_P = A ETA`` for the next wave step's kick, when a wave step closes; then the
+    phase advances (the grid's step's last loop)."""
+    apply_filter(a, Wave.ETA, Wave.AT, Wave.ETA_P, parallel, closes(a))
+    for _ in range(1):
+        nxt = phase(a) + 1
+        if nxt == every(a):
+            nxt = 0
+        a.own[0, Wave.PHASE] = nxt
 
 
 @ti.func
@@ -293,16 +339,15 @@ def pressure_surface(fx: ti.template(), a: ti.template()):
 
 @ti.func
 def sponge(fx: ti.template(), a: ti.template()):
-    """The absorbing layer, ``eta <- eta / (1 + dt sigma)``, each cell on its own (parallel:
-    no loop over the grid on one thread). The energy it removes, ``rho g / 2 (eta^2 - eta'^2)
-    dx`` per cell, is rounded to a multiple of ``SPONGE_Q`` and the cells' shares added with
-    atomics into ``red[0, 0]`` (f64 in any form; free after the correction): such sums are
+    """The absorbing layer, ``eta <- eta / (1 + Dt sigma)``, each cell on its own (parallel:
+    no loop over the grid on one thread). The energy it removes per cell (:func:`_absorb`)
+    is rounded to a multiple of ``SPONGE_Q`` and the cells' shares added with atomics into ``red[0, 0]`` (f64 in any form; free after the correction): such sums are
     exact, so the step's total does not depend on the order of the additions (the same bits
     in every form, on any thread count and on a device); then one addition to
-    ``wave_absorbed``."""
+    ``wave_absorbed``. When a wave step closes, with ``Dt``."""
     for _ in range(1):
         a.red[0, 0] = ti.cast(0.0, ti.f64)
-    for j in range(cells(a)):
+    for j in range(cells(a) * closes(a)):
         share = _absorb(a, j)
         if share != 0:
             ti.atomic_add(a.red[0, 0], share)
@@ -313,14 +358,21 @@ def sponge(fx: ti.template(), a: ti.template()):
 @ti.func
 def _absorb(a: ti.template(), j):
     """Cell j's relaxation in the absorbing layer; returns the energy it removed, rounded to
-    a multiple of ``SPONGE_Q`` (f64)."""
+    a multiple of ``SPONGE_Q`` (f64): the change of the energy the grid's symplectic Euler
+    conserves between reflecting ends, ``E_w - Dt/2 rho int eta G phi`` (``G phi`` of this
+    wave step, set by :func:`_update`), so that this plus ``wave_absorbed`` holds whatever
+    the wave step; ``E_w`` differs from it by a term that oscillates and vanishes with the
+    waves."""
     wv = ti.static(a.own)
     share = ti.cast(0.0, ti.f64)
     sig = wv[j, Wave.SPONGE]
     if sig > 0:
+        dt = wave_dt(a)
         e = wv[j, Wave.ETA]
-        en = e / (1.0 + a.par[Param.DT] * sig)
-        share = quantize(ti.cast(0.5 * (e * e - en * en) * a.par[Param.WAVE_DX], ti.f64), SPONGE_Q)
+        en = e / (1.0 + dt * sig)
+        # the change of what the grid's step conserves, E_w - Dt/2 rho int eta G phi
+        removed = (0.5 * (e + en) - 0.5 * dt * wv[j, Wave.GPHI]) * (e - en)
+        share = quantize(ti.cast(removed * a.par[Param.WAVE_DX], ti.f64), SPONGE_Q)
         wv[j, Wave.ETA] = en
     return share
 
@@ -330,13 +382,6 @@ def _sponge_serial(a: ti.template()):
     """:func:`sponge` in one loop (the serial form): the shares summed in a local variable,
     the same exact sum (no atomics, which a fused launch's cached loads could miss)."""
     total = ti.cast(0.0, ti.f64)
-    for j in range(cells(a)):
+    for j in range(cells(a) * closes(a)):
         total += _absorb(a, j)
     a.acc[Acc.WAVE_ABSORBED] += total
-
-
-@ti.func
-def waves_serial(fx: ti.template(), a: ti.template()):
-    _update(a, False)
-    _sponge_serial(a)
-    _pressure_surface(a, False)

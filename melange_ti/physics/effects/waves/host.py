@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..base import State
-from . import SPONGE_RATE, TABLE, Wave, cells_and_spacing
+from . import SPONGE_RATE, TABLE, Wave, cells_and_spacing, steps_per_wave
 
 
 class WaveGrid(State):
@@ -17,16 +17,19 @@ class WaveGrid(State):
     def __init__(self, scene, np_real):
         p = self.physics = scene.physics
         self.np_real = np_real
+        self.every = steps_per_wave(p.wave_dt, scene.time.dt)  # K: time steps per wave step
         self.cells, self.dx = cells_and_spacing(p.wall_x, p.wave_end, p.wave_dx)
         self.rows = self.cells
 
     def params(self) -> dict[str, float]:
-        # shares of displaced water are multiples of WAVE_Q: their sums stay exact below 8
-        # (f64; 4 in f32), so the order of the additions does not matter (grid.py)
-        return {"WAVE_DX": self.dx, "WAVE_Q": 2.0**-50 if self.np_real is np.float64 else 2.0**-22}
+        # shares of displaced water are multiples of WAVE_Q: their sums stay exact below 32
+        # (f64; 16 in f32), so the order of the additions does not matter (coupling.py); a
+        # cell's column holds minus the submerged areas over a wave step, about the drafts of
+        # the icebergs over it
+        return {"WAVE_DX": self.dx, "WAVE_Q": 2.0**-48 if self.np_real is np.float64 else 2.0**-20}
 
     def config(self) -> dict[str, int]:
-        return {"WAVE_CELLS": self.cells, "WAVE_LOG": self.cells.bit_length() - 1}
+        return {"WAVE_CELLS": self.cells, "WAVE_LOG": self.cells.bit_length() - 1, "WAVE_EVERY": self.every}
 
     def x(self) -> np.ndarray:
         """x of the cell centres."""
@@ -69,13 +72,27 @@ class WaveGrid(State):
 
     def energy(self, surface: dict[str, np.ndarray] | None = None) -> float:
         """``rho g / 2 sum eta^2 dx + rho / 2 sum phi G phi dx``, summed in f64, of ``surface``
-        (:meth:`surface`; ``None``: the model's now)."""
+        (:meth:`surface`; ``None``: the model's now), the stored pair as it is (the
+        diagnostic ``wave_energy`` is :meth:`energy_now`)."""
         w = {k: v.astype(np.float64) for k, v in (surface or self.surface()).items()}
         return float(0.5 * self.dx * (np.dot(w["eta"], w["eta"]) + np.dot(w["phi"], w["g_phi"])))
 
+    def energy_now(self, rows: np.ndarray | None = None) -> float:
+        """The diagnostic ``wave_energy``: ``E_w`` with ``phi`` at the time of the grid's
+        last step (summed in f64). The grid's symplectic Euler staggers ``phi`` by half a
+        wave step: after a wave step closed (phase 0) the stored ``phi`` is half its kick
+        before that time, ``phi - Dt/2 g eta`` is at it; once the next has opened (its kick
+        taken), ``phi + Dt/2 g eta`` is. Taken so, ``E_w`` is the energy the stepping
+        conserves between reflecting ends to second order in ``Dt`` (the stored pair's is
+        off by ``Dt/2 rho int eta G phi``, first order, which grows with the wave step)."""
+        rows = (self.model.own_rows() if rows is None else rows)[: self.cells]
+        eta = rows[:, Wave.ETA].astype(np.float64)
+        half = 0.5 * self.every * self.model.scene.time.dt
+        phi = rows[:, Wave.PHI].astype(np.float64) + (half if int(rows[0, Wave.PHASE]) else -half) * eta
+        return float(0.5 * self.dx * (np.dot(eta, eta) + np.dot(phi, self.apply_g(phi))))
+
     def sample(self, rows: np.ndarray, bodies: dict) -> dict:
-        w = self.surface(rows)
-        return {"eta": w["eta"], "wave_energy": np.array(self.energy(w))}
+        return {"eta": rows[: self.cells, Wave.ETA].copy(), "wave_energy": np.array(self.energy_now(rows))}
 
     def refresh(self) -> None:
         from .kernels import refresh
@@ -84,6 +101,16 @@ class WaveGrid(State):
         refresh(a.cfg, a.own)
 
     # ------------------------------------------------------------ for scripts and tests
+    def apply_g(self, v: np.ndarray) -> np.ndarray:
+        """``G v`` at the cell centres (numpy, f64): ``k tanh(k H)`` on each of the grid's
+        cosine modes, through scipy's orthonormal cosine transform (the kernels' ``G``,
+        whose ``G phi`` the step keeps only as of the grid's last step)."""
+        from scipy.fft import dct, idct
+
+        k = np.pi * np.arange(self.cells) / (self.cells * self.dx)
+        sym = k * np.tanh(k * self.physics.water_depth)
+        return idct(sym * dct(np.asarray(v, dtype=np.float64), norm="ortho"), norm="ortho")
+
     def set_surface(self, eta: np.ndarray, phi: np.ndarray | None = None) -> None:
         """Set the sea surface (and the potential, default 0) at the cell centres."""
         rows = self.model.own_rows()

@@ -6,14 +6,31 @@ import taichi as ti
 from ...data.schema import Arrays
 from ...step.parts import Part, Stage
 from . import grid
-from .coupling import deposit as post_drift
-from .coupling import force
+from .coupling import close_all, force
 
-# phi's kick with the icebergs' (after their forces); after the correction, the grid's step
-# (what they displaced, eta += dt G phi, the absorbing layer: every part parallel)
+
+@ti.func
+def waves_serial(fx: ti.template(), a: ti.template()):
+    """The grid's stage in one serial function (the serial form)."""
+    close_all(fx, a)
+    grid._update(a, False)
+    grid._sponge_serial(a)
+    grid._pressure_surface(a, False)
+
+
+# phi's kick with the icebergs' (after their forces) when a wave step opens; after the
+# correction, the grid's step when one closes (what they displaced, eta += Dt G phi, the
+# absorbing layer, the phase: every part parallel, its loops empty on the other steps)
 STAGES = (
     ("forces", Stage("wave_kick", grid.kick_grid, (Part(grid.kick_grid),))),
-    ("correction", Stage("waves", grid.waves_serial, (Part(grid.update), Part(grid.sponge), Part(grid.pressure_surface)))),
+    (
+        "correction",
+        Stage(
+            "waves",
+            waves_serial,
+            (Part(close_all), Part(grid.update), Part(grid.sponge), Part(grid.pressure_surface)),
+        ),
+    ),
 )
 
 arr = ti.types.ndarray()
@@ -28,4 +45,4 @@ def refresh(cfg: arr, own: arr):
     grid.refresh(a)
 
 
-__all__ = ["force", "post_drift", "STAGES", "refresh"]
+__all__ = ["force", "STAGES", "refresh"]
