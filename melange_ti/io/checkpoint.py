@@ -20,7 +20,8 @@ def checkpoint_path(run_path: str | Path) -> Path:
     return run_path.with_name(run_path.name + ".ckpt")
 
 
-FORMAT_VERSION = 6  # 6: the coloured passes' counters; an owning effect's table may have changed its rows;
+FORMAT_VERSION = 7  # 7: an owning effect's table gained a column; an effect's per-body state carried (BODY_CARRIED);
+# 6: the coloured passes' counters; an owning effect's table may have changed its rows;
 # 5: an effect's run-wide ledger in acc (and an owning effect's table, under its name);
 # 4: the friction ledger in acc;
 # 3: ledgers and counters named by the schema

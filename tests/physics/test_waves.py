@@ -339,14 +339,15 @@ def test_fused_sampling_with_waves_gives_the_unfused_samples():
     """``advance_sampled`` (several samples in one launch, as a run's diagnostics are taken)
     gives what ``advance`` then ``sample_with_totals`` give, bit for bit: the surface, the
     wave energy and the absorbed energy too, at every sample (a ledger copied stale inside
-    the launch once showed only here)."""
+    the launch once showed only here); samples every 15 steps, so that some fall inside a
+    wave step (the phase then not 0)."""
     bergs = [{"x": 0.8 + 1.2 * q, "z": -R * 1.4 + 0.7, "theta": 0.05 * (-1) ** q, "vx": 0.3 * (-1) ** q} for q in range(12)]
     physics = {"wave_end": 20.0, "wave_sponge": 4.0, "wave_dx": 0.125}
     sc = make_scene(["gravity", "buoyancy", "drag", "collisions", "wall", "waves"], bergs, physics)
     fused, unfused = Model(sc, mode="serial"), Model(sc, mode="serial")
-    samples = fused.advance_sampled([60] * 6)
+    samples = fused.advance_sampled([15] * 24)
     for sample, totals in samples:
-        unfused.advance(60)
+        unfused.advance(15)
         s, t = unfused.sample_with_totals()
         assert set(sample) == set(s) and {"eta", "wave_energy"} <= set(s)
         for k in s:
@@ -423,7 +424,7 @@ def test_checkpoint_in_the_middle_of_a_wave_step_with_contacts_resumes_bit_for_b
 
 def test_a_grid_too_fine_for_the_time_step_is_refused():
     """The shortest wave of the grid must be one the wave step can follow (omega_max Dt <= 1):
-    wave_dx = 0.125 (k = 25, omega = 5) is refused at dt = 0.5 (no wave_every helps: the
+    wave_dx = 0.125 (k = 25, omega = 5) is refused at dt = 0.5 (no wave step helps: the
     message names wave_dx and dt) and accepted at dt = 0.1 with wave_dt = 0.1; the default
     wave_dt (0.1) at dt = 0.01 is accepted, and wave_dt = 0.3 refused, naming it."""
     berg = {"x": 5.0, "z": -R * 1.4 + 0.7}

@@ -90,7 +90,7 @@ TABLE = Table(
     (
         Column("ETA", "state", "w", "sea surface height above the still water line at the cell's centre", "eta"),
         Column("PHI", "state", "w sqrt(g w)", "velocity potential at the surface"),
-        Column("GPHI", "cache", "w / sqrt(w/g)", "G phi, the surface's vertical velocity without sources (set each step)"),
+        Column("GPHI", "cache", "w / sqrt(w/g)", "G phi, the surface's vertical velocity without sources (set when a wave step closes: of phi before the next opening's kick)"),
         Column(
             "SRC",
             "state",

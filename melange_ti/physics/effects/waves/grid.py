@@ -1,5 +1,5 @@
 """The wave grid's kernels: its step (``eta += Dt G phi + q``, the absorbing layer) and ``phi``'s kick,
-once per wave step (``Dt = K dt``, ``K = wave_every``).
+once per wave step (``Dt = K dt``, ``K`` the time steps per wave step, from ``wave_dt``).
 
 The physics and its discrete form are in :mod:`melange_ti.physics.effects.waves`. The grid's
 step applies ``G`` through a cosine transform (DCT-II, and DCT-III back) done as a complex FFT

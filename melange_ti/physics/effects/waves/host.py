@@ -66,14 +66,18 @@ class WaveGrid(State):
 
     def surface(self, rows: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """``eta``, ``phi`` and ``g_phi`` (``G phi``) at the cell centres, from the table's rows
-        (``None``: the model's now)."""
+        (``None``: the model's now). ``g_phi`` is ``G`` of ``phi`` as the last wave step left
+        it: after the next one opens (its kick taken, phase not 0) it is not ``G`` of this
+        ``phi``; :meth:`apply_g` is."""
         rows = (self.model.own_rows() if rows is None else rows)[: self.cells]
         return {"eta": rows[:, Wave.ETA].copy(), "phi": rows[:, Wave.PHI].copy(), "g_phi": rows[:, Wave.GPHI].copy()}
 
     def energy(self, surface: dict[str, np.ndarray] | None = None) -> float:
         """``rho g / 2 sum eta^2 dx + rho / 2 sum phi G phi dx``, summed in f64, of ``surface``
-        (:meth:`surface`; ``None``: the model's now), the stored pair as it is (the
-        diagnostic ``wave_energy`` is :meth:`energy_now`)."""
+        (:meth:`surface`; ``None``: the model's now), the stored pair as it is, taken with
+        the stored ``g_phi``: between a wave step's opening and its close that is ``G`` of
+        ``phi`` before the opening's kick, so take it at a close (the diagnostic
+        ``wave_energy`` is :meth:`energy_now`, right at any step)."""
         w = {k: v.astype(np.float64) for k, v in (surface or self.surface()).items()}
         return float(0.5 * self.dx * (np.dot(w["eta"], w["eta"]) + np.dot(w["phi"], w["g_phi"])))
 
