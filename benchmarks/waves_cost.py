@@ -7,7 +7,7 @@ part of a wave step costs.
 Each configuration: the shelf advanced to t = 45 in its own model, then ``--repeats`` timed
 blocks of ``--steps`` steps (a whole number of wave steps), the configurations alternating
 block by block. With waves: the defaults (``wave_dx`` 0.25: 4,096 cells over 600 widths;
-``wave_dt`` 0.1: a wave step every ten time steps), ``wave_dx`` 0.3 (2,048 cells), and
+the default wave step: every ten time steps), ``wave_dx`` 0.3 (2,048 cells), and
 ``wave_dt`` 0.01 (the grid and the coupling every time step, as before wave steps). Then the
 parts of a wave step, on the default grid's model with a wave step every time step (so every
 part runs at every call), at t = 45: each part alone in a kernel that runs it
@@ -41,7 +41,7 @@ def main() -> None:
     waves = [*paper, "waves"]
     configs = {
         "paper": [("scene.effects", paper)],
-        "paper + waves (defaults: wave_dx 0.25, wave_dt 0.1)": [("scene.effects", waves)],
+        "paper + waves (defaults: wave_dx 0.25, a wave step of ten steps)": [("scene.effects", waves)],
         "paper + waves, wave_dx 0.3": [("scene.effects", waves), ("physics.wave_dx", 0.3)],
         "paper + waves, wave_dt 0.01 (every step)": [("scene.effects", waves), ("physics.wave_dt", 0.01)],
     }

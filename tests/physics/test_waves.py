@@ -226,7 +226,7 @@ def heaves():
     for effects, depth in ((WAVES_ONLY, 0.0), (WAVES_ONLY, 1.0), (WITH_ADDED_MASS, 1.0)):
         moving = heaving(effects, depth=depth)
         every = moving.effect("waves").every
-        assert every == 10  # the default wave_dt, 0.1
+        assert every == 10  # the default wave step, ten time steps
         t, z = [], []
         for step in range(every, 4001, every):
             moving.advance(every)
@@ -365,7 +365,6 @@ def test_fused_sampling_with_waves_gives_the_unfused_samples():
         ({"water_depth": -2.0}, "physics.water_depth"),
         ({"water_depth": 1.0}, "physics.wave_pressure_depth"),  # at the default pressure depth: both named
         ({"wave_end": 1e6, "wave_dx": 0.01}, "physics.wave_dx"),
-        ({"wave_dt": 0.0}, "physics.wave_dt"),
         ({"wave_dt": -0.1}, "physics.wave_dt"),
     ],
 )
@@ -425,15 +424,18 @@ def test_checkpoint_in_the_middle_of_a_wave_step_with_contacts_resumes_bit_for_b
 def test_a_grid_too_fine_for_the_time_step_is_refused():
     """The shortest wave of the grid must be one the wave step can follow (omega_max Dt <= 1):
     wave_dx = 0.125 (k = 25, omega = 5) is refused at dt = 0.5 (no wave step helps: the
-    message names wave_dx and dt) and accepted at dt = 0.1 with wave_dt = 0.1; the default
-    wave_dt (0.1) at dt = 0.01 is accepted, and wave_dt = 0.3 refused, naming it."""
+    message names wave_dx and dt) and accepted at dt = 0.1; wave_dt = 0.3 at dt = 0.01 is
+    refused, naming it. The default wave step is the first of ten, five, two and one time
+    steps that omega_max K dt <= 1 allows (omega_max just above 5): ten at dt = 0.01, two at
+    0.05, one at 0.1; so it shrinks with dt."""
     berg = {"x": 5.0, "z": -R * 1.4 + 0.7}
     physics = {"wave_dx": 0.125, "wave_end": 64.0, "wave_sponge": 8.0}
     with pytest.raises(SceneError) as err:
         make_scene(WAVES_ONLY, [berg], physics, dt=0.5)
     assert "physics.wave_dx" in str(err.value) and "time.dt" in str(err.value) and "\n" not in str(err.value)
-    make_scene(WAVES_ONLY, [berg], physics, dt=0.1)
-    make_scene(WAVES_ONLY, [berg], physics, dt=0.01)
+    for dt, every in ((0.01, 10), (0.05, 2), (0.1, 1)):
+        sc = make_scene(WAVES_ONLY, [berg], physics, dt=dt)
+        assert waves_effect.steps_per_wave(sc.physics, dt) == every, dt
     with pytest.raises(SceneError) as err:
         make_scene(WAVES_ONLY, [berg], {**physics, "wave_dt": 0.3}, dt=0.01)
     assert str(err.value).startswith("physics.wave_dt = 0.3:") and "smaller wave_dt" in str(err.value)

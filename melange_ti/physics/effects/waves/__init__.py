@@ -35,8 +35,10 @@ change of ``A_q`` is spread to the cells with the same weights, so the energy th
 give the water is the work of their force.
 
 **The wave step.** The grid and the coupling advance once every ``K`` time steps: the wave
-step is ``Dt = K dt``, the largest multiple of ``dt`` not above ``wave_dt`` (``dt`` itself
-when ``wave_dt < dt``). The waves are linear and slow next to the
+step is ``Dt = K dt``: by default (``wave_dt = 0``) ten time steps, or five, two or one where
+the grid's shortest waves need a shorter one (:data:`AUTO_EVERY`), so that the wave step
+shrinks with ``dt`` and divides the usual output intervals; with ``wave_dt > 0`` the largest
+multiple of ``dt`` not above it (``dt`` itself when ``wave_dt < dt``). The waves are linear and slow next to the
 icebergs' contacts, so the system is split as a multiple-time-step (impulse, r-RESPA)
 method: the icebergs' own forces (gravity, buoyancy in still water, drag, contacts) kick
 every step; the waves' part of the energy, ``rho g / 2 int eta^2 dx + rho / 2 int phi G
@@ -146,12 +148,13 @@ EFFECT = Effect(
         Key.positive("wave_dx", 0.25, "w", "largest spacing of the wave grid (used with the waves effect)"),
         Key("wave_end", 600.0, "w", "x where the wave domain ends (used with the waves effect)", None, ""),
         Key.nonnegative("wave_sponge", 50.0, "w", "width of the absorbing layer before wave_end (used with the waves effect)"),
-        Key.positive(
+        Key.nonnegative(
             "wave_dt",
-            0.1,
+            0.0,
             "sqrt(w/g)",
             "the wave step: the grid and the icebergs' coupling to it advance once per wave step, the largest "
-            "multiple of time.dt not above wave_dt (used with the waves effect)",
+            "multiple of time.dt not above wave_dt; 0: ten time steps, or five, two or one where the grid's "
+            "shortest waves need it (used with the waves effect)",
         ),
         Key.nonnegative(
             "wave_pressure_depth",
@@ -227,10 +230,25 @@ def cells_and_spacing(wall_x: float, wave_end: float, wave_dx: float) -> tuple[i
     return max(cells, 2), length / max(cells, 2)
 
 
-def steps_per_wave(wave_dt: float, dt: float) -> int:
-    """K, the time steps per wave step: the largest whole number with ``K dt <= wave_dt``
-    (to a relative 1e-9, so that 0.1 / 0.01 is 10), at least 1."""
-    return max(1, math.floor(wave_dt / dt * (1 + 1e-9)))
+AUTO_EVERY = (10, 5, 2, 1)  # time steps per wave step with wave_dt = 0: the first the shortest waves allow
+
+
+def shortest_omega(physics) -> float:
+    """``omega_max``: the frequency of the grid's shortest wave (``k = pi / dx``)."""
+    _, dx = cells_and_spacing(physics.wall_x, physics.wave_end, physics.wave_dx)
+    k = math.pi / dx
+    return math.sqrt(k * math.tanh(k * physics.water_depth))
+
+
+def steps_per_wave(physics, dt: float) -> int:
+    """K, the time steps per wave step: with ``wave_dt > 0`` the largest whole number with
+    ``K dt <= wave_dt`` (to a relative 1e-9, so that 0.1 / 0.01 is 10), at least 1; with 0,
+    the first of :data:`AUTO_EVERY` whose step the grid's shortest waves can follow
+    (``omega_max K dt <= 1``), else 1."""
+    if physics.wave_dt > 0:
+        return max(1, math.floor(physics.wave_dt / dt * (1 + 1e-9)))
+    omega = shortest_omega(physics)
+    return next((k for k in AUTO_EVERY if omega * k * dt <= 1.0), 1)
 
 
 def check(physics, dt: float) -> tuple[str, float, str] | None:
@@ -256,7 +274,7 @@ def check(physics, dt: float) -> tuple[str, float, str] | None:
         return "physics.wave_dx", physics.wave_dx, f"makes more than {MAX_CELLS} wave cells; use at least {most:.4g}"
     k = math.pi / dx
     omega = math.sqrt(k * math.tanh(k * physics.water_depth))
-    step = steps_per_wave(physics.wave_dt, dt) * dt
+    step = steps_per_wave(physics, dt) * dt
     if omega * step > 1.0:
         if omega * dt <= 1.0:
             return (

@@ -17,7 +17,7 @@ class WaveGrid(State):
     def __init__(self, scene, np_real):
         p = self.physics = scene.physics
         self.np_real = np_real
-        self.every = steps_per_wave(p.wave_dt, scene.time.dt)  # K: time steps per wave step
+        self.every = steps_per_wave(p, scene.time.dt)  # K: time steps per wave step
         self.cells, self.dx = cells_and_spacing(p.wall_x, p.wave_end, p.wave_dx)
         self.rows = self.cells
 
