@@ -86,7 +86,7 @@ FIELDS: tuple[Field, ...] = (
         "f8",
         "1",
         "fraction of icebergs capsized (tilted 45 degrees or more)",
-        lambda e: capsized_fraction(e.sample["theta"]),
+        lambda e: capsized_fraction(e.sample["theta"], e.sample.get("axis")),
     ),
     Field(
         "leading_edge",
@@ -144,19 +144,24 @@ def required(format_version: int) -> tuple[str, ...]:
     return ("time", *(f.name for f in FIELDS if f.since <= format_version))
 
 
-def capsize_angle(theta: np.ndarray) -> np.ndarray:
-    """``phi = |theta|`` folded into [0, pi/2]: the long axis' distance from vertical."""
+def capsize_angle(theta: np.ndarray, axis: np.ndarray | None = None) -> np.ndarray:
+    """``phi = |theta|`` folded into [0, pi/2]: the long axis' distance from vertical. For a
+    polygon, ``axis`` (``/icebergs/axis``, :func:`melange_ti.geometry.principal_axis`): the
+    angle from the body's v axis to the principal axis of its area nearest it, so ``phi`` is
+    that axis' distance from vertical (``None`` or 0: a rectangle's, v itself)."""
+    if axis is not None:
+        theta = theta + axis
     m = np.mod(np.abs(theta), np.pi)
     return np.minimum(m, np.pi - m)
 
 
-def capsized(theta: np.ndarray) -> np.ndarray:
+def capsized(theta: np.ndarray, axis: np.ndarray | None = None) -> np.ndarray:
     """Boolean mask of icebergs with ``phi >= pi/4``."""
-    return capsize_angle(theta) >= np.pi / 4
+    return capsize_angle(theta, axis) >= np.pi / 4
 
 
-def capsized_fraction(theta: np.ndarray) -> float:
-    return float(np.mean(capsized(theta))) if theta.size else 0.0
+def capsized_fraction(theta: np.ndarray, axis: np.ndarray | None = None) -> float:
+    return float(np.mean(capsized(theta, axis))) if theta.size else 0.0
 
 
 def leading_edge(x: np.ndarray, x0_max: float) -> float:

@@ -201,6 +201,10 @@ def output_page() -> str:
             f"| `/{name}` | ({name}) | 1 | with the {owner[name]} effect: {_cell(doc)}, "
             f"the coordinate of the `{name}` dimension |"
         )
+    out.append(
+        "| `/corner` | (corner) | 1 | in a run with polygon icebergs (`[[iceberg]] vertices`): corner of an outline, "
+        "the coordinate of the `corner` dimension; the `polygons:` variables below are in such runs only |"
+    )
     dims = {"icebergs": "(iceberg)", "snapshots": "(time, iceberg)", "diagnostics": "(time)"}
     declared = {d.path: d for d in DATASETS}
     for group, variables in meta.items():
@@ -209,6 +213,8 @@ def output_page() -> str:
             decl = declared.get(f"{group}/{name}")
             if decl is not None:
                 d = "(" + ", ".join((*(("time",) if group == "snapshots" else ()), *decl.dims)) + ")"
+            if group == "icebergs" and name in ("corner_u", "corner_v"):
+                d = "(iceberg, corner)"
             out.append(f"| `/{group}/{name}` | {d} | {_cell(attrs['units'])} | {_cell(attrs['long_name'])} |")
     coords = [d for d in DATASETS if d.coordinate]
     out += [

@@ -160,3 +160,148 @@ def clipped_moments(z, theta, w, h, wl=0.0):
     corners = np.array([(su * w / 2 * c - sv * h / 2 * s, z + su * w / 2 * s + sv * h / 2 * c) for su, sv in signs])
     a, xb, _ = area_centroid(below(corners, wl))
     return a, a * xb
+
+
+# ---------------------------------------------------------------- outlines (any convex polygon)
+# An iceberg's outline is a rectangle (``width`` x ``thickness``, the paper's) or a convex
+# polygon of 3 to MAX_VERTICES corners, counter-clockwise in the body frame (u, v) about its
+# centroid, the centre of mass. Everything the model needs from an outline comes from here
+# (host side) and from melange_ti.physics.shape (the kernels).
+MAX_VERTICES = 8
+
+
+def rectangle(width: float, thickness: float) -> np.ndarray:
+    """A rectangle's corners about its centre (4, 2), counter-clockwise from the lower right:
+    the order the kernels take them in (``physics.shape.hydrostatics.corner``)."""
+    w, h = 0.5 * width, 0.5 * thickness
+    return np.array([[w, -h], [w, h], [-w, h], [-w, -h]])
+
+
+def outline_problem(vertices) -> str | None:
+    """What keeps ``vertices`` (``[[x, z], ...]``) from being an iceberg's outline, in words
+    (what would be accepted), or ``None``: 3 to :data:`MAX_VERTICES` finite corners of a
+    convex polygon with an area, listed counter-clockwise, no two equal, no three in a line."""
+    try:
+        v = np.asarray(vertices, dtype=float)
+    except (TypeError, ValueError):
+        return "must be a list of [x, z] corners"
+    if v.ndim != 2 or v.shape[1] != 2:
+        return "must be a list of [x, z] corners"
+    k = v.shape[0]
+    if not 3 <= k <= MAX_VERTICES:
+        return f"has {k} corners; an outline has 3 to {MAX_VERTICES}"
+    if not np.all(np.isfinite(v)):
+        return "must hold finite numbers"
+    scale = float(np.max(np.abs(v - v.mean(axis=0)))) or 1.0
+    edge = np.roll(v, -1, axis=0) - v
+    if np.any(np.hypot(edge[:, 0], edge[:, 1]) <= 1e-9 * scale):
+        return "repeats a corner; list each corner once"
+    for p in range(k):  # two edges that are not neighbours may not meet
+        for q in range(p + 2, k):
+            if p == 0 and q == k - 1:
+                continue
+            if _segments_meet(v[p], v[(p + 1) % k], v[q], v[(q + 1) % k]):
+                return "crosses itself; list the corners in order around the outline, counter-clockwise"
+    area = 0.5 * float(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
+    if abs(area) <= 1e-9 * scale * scale:
+        return "has no area"
+    if area < 0:
+        return "is listed clockwise; list the corners counter-clockwise"
+    turn = edge[:, 0] * np.roll(edge[:, 1], -1) - edge[:, 1] * np.roll(edge[:, 0], -1)
+    lengths = np.hypot(edge[:, 0], edge[:, 1])
+    if np.any(turn <= 1e-9 * lengths * np.roll(lengths, -1)):
+        return "is not convex (or has three corners in a line); give a convex outline, counter-clockwise"
+    return None
+
+
+def _segments_meet(p1, p2, q1, q2) -> bool:
+    def side(a, b, c):
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    d1, d2 = side(q1, q2, p1), side(q1, q2, p2)
+    d3, d4 = side(p1, p2, q1), side(p1, p2, q2)
+    return d1 * d2 <= 0 and d3 * d4 <= 0 and not (d1 == d2 == 0)
+
+
+def polygon_moments(vertices: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Area, centroid (2,) and the second moments ``(int u^2, int v^2, int u v) dA`` about the
+    centroid of a counter-clockwise polygon (K, 2) (Green's theorem, edge by edge)."""
+    v = np.asarray(vertices, dtype=float)
+    x, z = v[:, 0], v[:, 1]
+    x1, z1 = np.roll(x, -1), np.roll(z, -1)
+    cr = x * z1 - x1 * z
+    area = 0.5 * cr.sum()
+    c = np.array([(cr * (x + x1)).sum(), (cr * (z + z1)).sum()]) / (6.0 * area)
+    u, w = x - c[0], z - c[1]
+    u1, w1 = np.roll(u, -1), np.roll(w, -1)
+    cr = u * w1 - u1 * w
+    second = np.array(
+        [
+            (cr * (u * u + u * u1 + u1 * u1)).sum() / 12.0,
+            (cr * (w * w + w * w1 + w1 * w1)).sum() / 12.0,
+            (cr * (u * w1 + 2 * u * w + 2 * u1 * w1 + u1 * w)).sum() / 24.0,
+        ]
+    )
+    return float(area), c, second
+
+
+def principal_axis(second: np.ndarray) -> float:
+    """The angle ``alpha`` (|alpha| <= pi/4, counter-clockwise) from the body's v axis to the
+    principal axis of the area's inertia nearest it: 0 where the inertia has no axes (a
+    square, a regular polygon: equal moments, no product) or they are u and v."""
+    iuu, ivv, iuv = (float(t) for t in second)
+    scale = abs(iuu) + abs(ivv)
+    if abs(iuv) <= 1e-12 * scale and abs(iuu - ivv) <= 1e-12 * scale or iuv == 0.0:
+        return 0.0
+    # the principal directions of the tensor [[iuu, iuv], [iuv, ivv]] (moments int u^2 etc.)
+    beta = 0.5 * math.atan2(2.0 * iuv, iuu - ivv)  # the direction of largest int (r . e)^2 from u
+    alpha = beta - 0.5 * math.pi  # the same axes, measured from v
+    return float((alpha + 0.25 * math.pi) % (0.5 * math.pi) - 0.25 * math.pi)
+
+
+def outline(vertices, density_ratio: float) -> dict:
+    """An outline's constants: corners about the centroid (K, 2), the centroid the corners
+    were given about (2,), mass and moment of inertia about the centroid (rho_w = 1), the
+    bounding radius, the width and thickness (the extents along u and v), the diameter (the
+    longest chord: the longest water line it can float with) and the principal axis
+    (:func:`principal_axis`)."""
+    v = np.asarray(vertices, dtype=float)
+    area, c, second = polygon_moments(v)
+    corners = v - c
+    radii = np.hypot(corners[:, 0], corners[:, 1])
+    d = corners[:, None, :] - corners[None, :, :]
+    return {
+        "corners": corners,
+        "centroid": c,
+        "mass": density_ratio * area,
+        "inertia": density_ratio * float(second[0] + second[1]),
+        "bound": float(radii.max()),
+        "width": float(np.ptp(corners[:, 0])),
+        "thickness": float(np.ptp(corners[:, 1])),
+        "diameter": float(np.hypot(d[..., 0], d[..., 1]).max()),
+        "axis": principal_axis(second),
+    }
+
+
+def body_outlines(icebergs) -> np.ndarray:
+    """Every iceberg's corners in its body frame about its centre of mass, (N, K, 2), from a
+    run's ``/icebergs`` (a mapping): a polygon's as stored (``corners``, ``corner_u``,
+    ``corner_v``), padded by repeating its last corner (a repeated corner draws nothing); a
+    rectangle's from ``width`` and ``thickness``."""
+    width = np.asarray(icebergs["width"], dtype=float)
+    if "corner_u" not in icebergs:
+        thickness = np.asarray(icebergs["thickness"], dtype=float)
+        return np.stack([rectangle(w, h) for w, h in zip(width, thickness, strict=True)]).reshape(-1, 4, 2)
+    out = np.stack([np.asarray(icebergs["corner_u"], dtype=float), np.asarray(icebergs["corner_v"], dtype=float)], -1)
+    count = np.asarray(icebergs["corners"], dtype=int)
+    for i, k in enumerate(count):
+        out[i, k:] = out[i, k - 1]
+    return out
+
+
+def world_outlines(x, z, theta, body: np.ndarray) -> np.ndarray:
+    """World corners (N, K, 2) of outlines ``body`` (N, K, 2) at poses ``x, z, theta``."""
+    x, z, theta = (np.asarray(a, dtype=float) for a in (x, z, theta))
+    c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
+    u, v = body[..., 0], body[..., 1]
+    return np.stack([x[:, None] + u * c - v * s, z[:, None] + u * s + v * c], -1)

@@ -31,8 +31,8 @@ from .physics.data.schema import (
     ACC_LEDGERS,
     ACCUMULATORS,
     BODIES,
-    BODY_INTS,
     BODY_CARRIED,
+    BODY_INTS,
     BODY_LEDGERS,
     CELLS,
     CONFIG,
@@ -122,7 +122,9 @@ class Model:
             raise ValueError(f"order must be one of {', '.join(ORDERS)}, not {order!r}")
         coloured = scene.effects.contacts and (order == "coloured" or (order == "auto" and not on_cpu))
         self.order = "coloured" if coloured else "sequential"
-        self.fx = dataclasses.replace(scene.effects, coloured=coloured)
+        # a polygon among the icebergs: every outline is read from its corners (the scene's most)
+        vertices = int(bergs.corners.max()) if bergs.outline is not None else 0
+        self.fx = dataclasses.replace(scene.effects, coloured=coloured, vertices=vertices)
         self._colours: int | None = None  # colours of the last colouring, once read
         # the parallel form solves islands side by side where there are threads to pay for
         # finding them (ISLANDS_MIN_THREADS); both ways give the same bits
@@ -186,6 +188,14 @@ class Model:
         rows = np.zeros((n, body_width(self.fx)), dtype=np.float64)
         mass, inertia = mass_inertia(bergs.width, bergs.thickness, p.density_ratio)
         bound = 0.5 * np.hypot(bergs.width, bergs.thickness)
+        if bergs.outline is not None:  # polygons: the constants from their corners (geometry.outline)
+            outlines = bergs.outlines(p.density_ratio)
+            mass, inertia, bound = (np.array([o[k] for o in outlines]) for k in ("mass", "inertia", "bound"))
+            rows[:, Body.CORNERS] = bergs.corners
+            rows[:, Body.AXIS] = [o["axis"] for o in outlines]
+            for i, o in enumerate(outlines):
+                rows[i, Body.U0 : Body.U0 + o["corners"].size] = o["corners"].ravel()
+        self.axis = rows[:, Body.AXIS].copy() if bergs.outline is not None else None
         rows[:, Body.WIDTH] = bergs.width
         rows[:, Body.THICK] = bergs.thickness
         rows[:, Body.MASS] = mass
@@ -252,10 +262,21 @@ class Model:
         return self.arrays.b.to_numpy()
 
     def constants(self) -> dict[str, np.ndarray]:
-        """Per-iceberg constants ``width, thickness, mass, inertia``, arrays of shape (N,)."""
+        """Per-iceberg constants ``width, thickness, mass, inertia``, arrays of shape (N,); with
+        polygons also their outlines (``corners``, ``corner_u``, ``corner_v`` (N, corners),
+        ``axis``: :data:`melange_ti.io.hdf5.OUTLINE`)."""
         rows = self._rows()
         cols = BODIES.outputs("constant")
-        return {k: rows[:, cols[k]].copy() for k in CONSTANTS}
+        out = {k: rows[:, cols[k]].copy() for k in CONSTANTS}
+        if self.fx.vertices:  # polygons: the outlines (io.hdf5.OUTLINE)
+            corners = rows[:, Body.U0 : Body.U0 + 2 * self.fx.vertices].reshape(self.n, -1, 2)
+            out.update(
+                corners=rows[:, Body.CORNERS].astype(np.int64),
+                corner_u=corners[..., 0].copy(),
+                corner_v=corners[..., 1].copy(),
+                axis=rows[:, Body.AXIS].copy(),
+            )
+        return out
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
         """Load ``x, z, theta, vx, vz, omega`` (arrays of shape (N,))."""
@@ -293,7 +314,7 @@ class Model:
                 out.append(self.sample_with_totals())
             return out
         bufs = self._sample_buffers(len(segments))
-        stages.steps_serial_sampled(self.fx, np.asarray(segments, dtype=np.int32), *self.arrays, *bufs)
+        stages.steps_serial_sampled(self.fx, np.asarray(segments, dtype=np.int32), *self.arrays.ndarrays(), *bufs)
         self._check_overflow()
         return [self._unpack(*bufs, k) for k in range(len(segments))]
 
@@ -314,6 +335,8 @@ class Model:
         """Sample ``k`` of the buffers; the owning effect's part from its table, copied in the
         launch (``out_own``) or, ``None``, fetched now: the same values."""
         sample = {name: out[k, :, q].copy() for q, name in enumerate(stages.SAMPLE_NAMES)}
+        if self.axis is not None:  # polygons: the principal axes the capsize angle is measured by
+            sample["axis"] = self.axis
         if self.owned is not None:
             sample.update(self.owned.sample(self.own_rows() if out_own is None else out_own[k], sample))
         return sample, self._totals(out_acc[k], out_cnt[k])
@@ -377,7 +400,7 @@ class Model:
         if self._calibrate and steps >= 2 * (CALIBRATE_STEPS + 1):
             steps -= self._choose_mode()
         if self.mode == "serial":
-            stages.steps_serial(self.fx, steps, *self.arrays)
+            stages.steps_serial(self.fx, steps, *self.arrays.ndarrays())
         else:
             self.prepare()  # the state may have been set from the host since the last call
             for _ in range(steps):
@@ -463,7 +486,7 @@ class Model:
         limit = (part.limit or self.n * (self.scene.contacts.max_partners + 1)) if part.repeat else 1
         for _ in range(limit if launches else 0):
             for _ in range(launches):
-                stages.run_part(self.fx, part, *self.arrays)
+                stages.run_part(self.fx, part, *self.arrays.ndarrays())
             if part.repeat and int(self.arrays.cnt[Counter.CHANGED]) == 0:
                 break
         if self._part_times is not None:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import scene as scene_mod
-from .geometry import area_centroid, below
+from .geometry import area_centroid, below, rectangle  # noqa: F401  (rectangle: the tests' and validation's)
 from .physics.data.schema import STATE_NAMES
 from .scene import dumps_toml
 
@@ -38,7 +38,7 @@ def make_scene(
         "contacts": dict(contacts or {}),
         "time": {"dt": dt, "duration": dt},
         "output": {"snapshot_interval": dt, "diagnostic_interval": dt, "checkpoint_interval": dt},
-        "iceberg": [{k: float(v) for k, v in b.items()} for b in bergs],
+        "iceberg": [{k: (v if k == "vertices" else float(v)) for k, v in b.items()} for b in bergs],
     }
     return scene_mod.loads(dumps_toml(doc))
 
@@ -155,12 +155,6 @@ def coulomb_impulse(k: np.ndarray, vn: float, vt: float, e: float, mu: float) ->
 # share ``r`` of it submerged; its potential energy there is ``-rho g r A z_B``, ``z_B`` the
 # submerged part's centroid above the centre of mass. Clipped by Sutherland-Hodgman
 # (:func:`..geometry.below`), independently of the model's edge-by-edge hydrostatics.
-def rectangle(width: float, thickness: float) -> np.ndarray:
-    """A rectangle's corners about its centre, counter-clockwise (4, 2)."""
-    w, h = 0.5 * width, 0.5 * thickness
-    return np.array([[w, -h], [w, h], [-w, h], [-w, -h]])
-
-
 def rotated(poly: np.ndarray, theta: float) -> np.ndarray:
     c, s = np.cos(theta), np.sin(theta)
     return poly @ np.array([[c, s], [-s, c]])

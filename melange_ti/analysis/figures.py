@@ -52,10 +52,11 @@ from matplotlib.collections import LineCollection  # noqa: E402
 
 from ..diagnostics import ENERGY_LEDGERS  # noqa: E402
 from ..errors import RunError  # noqa: E402
+from ..geometry import body_outlines, world_outlines  # noqa: E402
 from ..io.hdf5 import OutputError, is_partial, read_run  # noqa: E402
 from ..scene import SceneError, stored_scene  # noqa: E402
 from . import stats  # noqa: E402
-from .render import BOND, BondFaces, IcebergArtist, draw_sea, phi_colorbar, rect_corners, wave_surface  # noqa: E402
+from .render import BOND, BondFaces, IcebergArtist, draw_sea, phi_colorbar, wave_surface  # noqa: E402
 from .runs import Group, Run, check_times, default_times, last_snapshot_time, load_run, make_groups, parse_times, snap_times
 
 G_SI = 9.81  # m s^-2
@@ -219,7 +220,8 @@ def fig_capsized_by_position(groups: Sequence[Group], units: Units, times: Seque
         ax = axes[row, 0]
         snaps = [r.snaps for r in g.runs]
         for j, t in enumerate(times):
-            mean, std, count = stats.capsized_by_position_ensemble(snaps, t, edges)
+            axes_ = [r.data["icebergs"].get("axis") for r in g.runs]  # polygons: their principal axes
+            mean, std, count = stats.capsized_by_position_ensemble(snaps, t, edges, axes=axes_)
             ok = count > 0
             color = cmap(j / max(len(times) - 1, 1))
             t_snap = float(g.runs[0].snaps["time"][stats.nearest_index(g.runs[0].snaps["time"], t)])
@@ -255,12 +257,12 @@ def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float],
     zlo, zhi = math.inf, -math.inf
     for g in shown:
         r = g.runs[0]
-        w, h = r.data["icebergs"]["width"], r.data["icebergs"]["thickness"]
+        body = body_outlines(r.data["icebergs"])
         col = []
         for t in times:
             k = stats.nearest_index(r.snaps["time"], t)
             x, z, th = r.snaps["x"][k], r.snaps["z"][k], r.snaps["theta"][k]
-            corners = rect_corners(x, z, th, w, h)
+            corners = world_outlines(x, z, th, body)
             front = float(corners[:, :, 0].max())
             left = max(front - span, float(corners[:, :, 0].min()))
             sel = corners[:, :, 0].max(axis=1) >= left - 1.0
@@ -280,11 +282,20 @@ def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float],
     for c, (g, col) in enumerate(zip(shown, windows, strict=True)):
         r = g.runs[0]
         w, h = r.data["icebergs"]["width"], r.data["icebergs"]["thickness"]
+        polygons = "corner_u" in r.data["icebergs"]
+        body, axis = body_outlines(r.data["icebergs"]), r.data["icebergs"].get("axis")
         faces = BondFaces.read(r.path, r.data)
         for row, (k, sel, _, x1) in enumerate(col):
             ax = axes[row, c]
             draw_sea(ax, r.scene, (zlo, zhi), wave_surface(r.data, k))
-            art = IcebergArtist(ax, w[sel], h[sel], discs=r.scene.contacts.discs)
+            art = IcebergArtist(
+                ax,
+                w[sel],
+                h[sel],
+                discs=r.scene.contacts.discs,
+                outline=body[sel] if polygons else None,
+                axis=np.asarray(axis)[sel] if polygons else None,
+            )
             art.update(r.snaps["x"][k][sel], r.snaps["z"][k][sel], r.snaps["theta"][k][sel])
             mappable = art.rects
             if faces is not None:  # the bonds effect: the bonds intact then, on the faces they glue

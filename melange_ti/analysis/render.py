@@ -27,7 +27,7 @@ from matplotlib.patches import Polygon  # noqa: E402
 
 from .. import diagnostics as diag  # noqa: E402
 from ..errors import RunError  # noqa: E402
-from ..geometry import disc_local  # noqa: E402
+from ..geometry import body_outlines, disc_local, world_outlines  # noqa: E402
 from ..io.hdf5 import OutputError, read_run  # noqa: E402
 from ..scene import Scene, SceneError, stored_scene  # noqa: E402
 from .runs import DRAWN, check_finite  # noqa: E402
@@ -155,19 +155,30 @@ class IcebergArtist:
         edge_width: float = 0.6,
         bonds: BondFaces | None = None,
         bond_width: float = 1.8,
+        outline: np.ndarray | None = None,
+        axis: np.ndarray | None = None,
     ):
         self.ax = ax
         self.width = np.asarray(width, dtype=float)
         self.thickness = np.asarray(thickness, dtype=float)
-        self.discs = discs
+        # polygons (a run's /icebergs/corner_u, ...): body-frame corners (geometry.body_outlines)
+        # and the principal axes their capsize angle is measured by; None: rectangles
+        self.outline = outline
+        self.axis = axis
+        self.discs = discs if outline is None else None  # polygons have no contacts yet, so no discs
         n = self.width.shape[0]
         self.rects = PolyCollection(
-            np.zeros((n, 4, 2)), cmap=cmap, norm=PHI_NORM, edgecolors="k", linewidths=edge_width, zorder=3
+            np.zeros((n, 4 if outline is None else outline.shape[1], 2)),
+            cmap=cmap,
+            norm=PHI_NORM,
+            edgecolors="k",
+            linewidths=edge_width,
+            zorder=3,
         )
         self.rects.set_array(np.zeros(n))
         ax.add_collection(self.rects)
         self.circles = None
-        if discs:
+        if self.discs:
             _, r = disc_local(self.width, self.thickness, discs)
             d = np.repeat(2.0 * r, discs)
             self.circles = EllipseCollection(
@@ -192,10 +203,13 @@ class IcebergArtist:
 
     def update(self, x, z, theta, t: float | None = None) -> None:
         """Draw the icebergs at ``x, z, theta``, and (with bonds) the bonds intact at ``t``."""
-        self.rects.set_verts(rect_corners(x, z, theta, self.width, self.thickness))
+        if self.outline is None:
+            self.rects.set_verts(rect_corners(x, z, theta, self.width, self.thickness))
+        else:
+            self.rects.set_verts(world_outlines(x, z, theta, self.outline))
         if self.bond_lines is not None:
             self.bond_lines.set_segments(self.bonds.segments(x, z, theta, t))
-        self.rects.set_array(diag.capsize_angle(np.asarray(theta, dtype=float)))
+        self.rects.set_array(diag.capsize_angle(np.asarray(theta, dtype=float), self.axis))
         if self.circles is not None:
             centres, _ = disc_centres(x, z, theta, self.width, self.thickness, self.discs)
             self.circles.set_offsets(centres.reshape(-1, 2))
@@ -313,12 +327,13 @@ class FrameMaker:
         snaps = run["snapshots"]
         width = run["icebergs"]["width"]
         thickness = run["icebergs"]["thickness"]
-        corners = rect_corners(
+        body = body_outlines(run["icebergs"])
+        self.outline, self.axis = (body, run["icebergs"].get("axis")) if "corner_u" in run["icebergs"] else (None, None)
+        corners = world_outlines(
             snaps["x"][frames].ravel(),
             snaps["z"][frames].ravel(),
             snaps["theta"][frames].ravel(),
-            np.tile(width, len(frames)),
-            np.tile(thickness, len(frames)),
+            np.tile(body, (len(frames), 1, 1)),
         )
         xmin, xmax, zmin, zmax = extent(corners)
         if scene.effects.wall:
@@ -368,6 +383,8 @@ class FrameMaker:
                 edge_width=0.0 if overview else 0.6,
                 bonds=self.bonds,
                 bond_width=1.0 if overview else 1.8,
+                outline=self.outline,
+                axis=self.axis,
             )
             self.artists.append(art)
         self.ax.set_xlim(*self.xlim)

@@ -138,14 +138,17 @@ def position_edges(x_min: float, x_max: float, bin_width: float = 10.0) -> np.nd
     return x_min + bin_width * np.arange(nbins + 1)
 
 
-def capsized_by_position(x: np.ndarray, theta: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def capsized_by_position(
+    x: np.ndarray, theta: np.ndarray, edges: np.ndarray, axis: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Fraction capsized and count of icebergs (centres) in each bin of ``edges``.
 
     Empty bins have fraction NaN. Fixed edges, so that several runs share their bins.
+    ``axis``: a polygon run's principal axes (``/icebergs/axis``, :func:`..diagnostics.capsize_angle`).
     """
     x = np.asarray(x, dtype=float)
     count, _ = np.histogram(x, edges)
-    caps, _ = np.histogram(x[diag.capsized(np.asarray(theta, dtype=float))], edges)
+    caps, _ = np.histogram(x[diag.capsized(np.asarray(theta, dtype=float), axis)], edges)
     with np.errstate(invalid="ignore", divide="ignore"):
         frac = np.where(count > 0, caps / np.maximum(count, 1), np.nan)
     return frac, count
@@ -156,29 +159,33 @@ def capsized_by_position_ensemble(
     t: float,
     edges: np.ndarray,
     ddof: int = 0,
+    axes: Sequence[np.ndarray | None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per-bin mean and std over runs of the capsized fraction at the snapshot nearest ``t``.
 
     ``snapshots`` are the runs' ``/snapshots`` groups (``time``, ``x``, ``theta``). Bins that
     are empty in a run do not count for that run. Returns ``(mean, std, runs_with_icebergs)``.
+    ``axes``: per run, a polygon run's principal axes (``/icebergs/axis``) or ``None``.
     """
     fracs = []
-    for snap in snapshots:
+    for n, snap in enumerate(snapshots):
         k = nearest_index(snap["time"], t)
-        frac, _ = capsized_by_position(snap["x"][k], snap["theta"][k], edges)
+        frac, _ = capsized_by_position(snap["x"][k], snap["theta"][k], edges, axes[n] if axes is not None else None)
         fracs.append(frac)
     values = np.vstack(fracs)
     mean, std = mean_std(values, ddof=ddof)
     return mean, std, np.isfinite(values).sum(axis=0)
 
 
-def capsized_by_position_history(snapshots: Mapping[str, np.ndarray], edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def capsized_by_position_history(
+    snapshots: Mapping[str, np.ndarray], edges: np.ndarray, axis: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Fraction capsized in each bin at every snapshot of one run: shapes (S, bins) each.
 
     Returns ``(fraction, count)``; a space-time view of paper Fig. 5.
     """
     x, theta = np.asarray(snapshots["x"]), np.asarray(snapshots["theta"])
-    rows = [capsized_by_position(x[k], theta[k], edges) for k in range(x.shape[0])]
+    rows = [capsized_by_position(x[k], theta[k], edges, axis) for k in range(x.shape[0])]
     nb = len(edges) - 1
     frac = np.array([r[0] for r in rows]).reshape(-1, nb)
     count = np.array([r[1] for r in rows]).reshape(-1, nb)

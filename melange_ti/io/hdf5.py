@@ -67,11 +67,25 @@ UNITS_COMMENT = (
 )
 
 
+# A run with polygon icebergs (``[[iceberg]] vertices``) also holds each outline: its corners
+# about the centroid in the body frame over the dimension ``corner`` (zero past the iceberg's
+# count), and the principal axis its capsize angle is measured by. A run of rectangles has none
+# of them: its outlines are its widths and thicknesses.
+OUTLINE = ("corners", "corner_u", "corner_v", "axis")
+OUTLINE_ATTRS = {
+    "corners": {"units": "1", "long_name": "polygons: the number of corners of the iceberg's outline"},
+    "corner_u": {"units": "w", "long_name": "polygons: each corner's body-frame u about the centroid (0 past corners)"},
+    "corner_v": {"units": "w", "long_name": "polygons: each corner's body-frame v about the centroid (0 past corners)"},
+    "axis": {"units": "rad", "long_name": "polygons: the angle from the body's v axis to its principal axis nearest it"},
+}
+
+
 def variable_attrs() -> dict[str, dict[str, dict[str, str]]]:
     """``{group: {variable: {"units": ..., "long_name": ...}}}`` for every variable of a run
     file, from the schema and the diagnostics table (so the file cannot drift from them)."""
     cols = {c.output: c for c in BODIES.columns if c.output}
     bergs = {k: {"units": cols[k].units, "long_name": cols[k].doc} for k in ("width", "thickness", "mass", "inertia")}
+    bergs.update(OUTLINE_ATTRS)
     snaps = {k: {"units": cols[k].units, "long_name": cols[k].doc} for k in STATE}
     diags = {f.name: {"units": f.units, "long_name": f.long_name} for f in FIELDS}
     out = {"icebergs": bergs, "snapshots": snaps, "diagnostics": diags}
@@ -164,9 +178,16 @@ class RunWriter:
         iceberg.attrs.update({"units": "1", "long_name": "iceberg index (order of the initial state)"})
         iceberg.make_scale("iceberg")
         g = f.create_group("icebergs")
+        corner = None
+        if "corner_u" in constants:  # polygons: the outlines' dimension
+            corner = f.create_dataset("corner", data=np.arange(np.shape(constants["corner_u"])[1], dtype=np.int64))
+            corner.attrs.update({"units": "1", "long_name": "corner of an iceberg's outline, counter-clockwise"})
+            corner.make_scale("corner")
         for k, v in constants.items():
-            ds = g.create_dataset(k, data=np.asarray(v, dtype=self.dtype))
+            ds = g.create_dataset(k, data=np.asarray(v, dtype=np.int64 if k == "corners" else self.dtype))
             ds.dims[0].attach_scale(iceberg)
+            if ds.ndim == 2:
+                ds.dims[1].attach_scale(corner)
             ds.attrs.update(meta["icebergs"].get(k, {}))
         rows = max(1, min(64, 65536 // max(n, 1)))
         s = f.create_group("snapshots")
@@ -446,7 +467,8 @@ def last_row(path: str | Path, names: tuple[str, ...]) -> dict[str, float]:
 
 def last_snapshot(path: str | Path, time: float = math.inf) -> dict[str, np.ndarray | float]:
     """The last snapshot at or before ``time`` (within 1e-9 relative): ``{"time": t, "x": ...,
-    ..., "omega": ..., "width": ..., "thickness": ...}``, float64 arrays of shape (N,).
+    ..., "omega": ..., "width": ..., "thickness": ...}``, float64 arrays of shape (N,); a run
+    of polygons adds ``outline`` (N, corners, 2) and ``corners`` (N,) (:data:`OUTLINE`).
     One-line :class:`OutputError` for an unreadable file or one without snapshots,
     :class:`SnapshotTimeError` if the first snapshot is later than ``time``."""
     data = read_run(path)
@@ -459,4 +481,8 @@ def last_snapshot(path: str | Path, time: float = math.inf) -> dict[str, np.ndar
     out: dict = {"time": float(times[k])}
     out.update({name: np.asarray(data["snapshots"][name][k], dtype=np.float64) for name in STATE})
     out.update({name: np.asarray(data["icebergs"][name], dtype=np.float64) for name in ("width", "thickness")})
+    if "corner_u" in data["icebergs"]:  # polygons: the outlines, (N, corners, 2) and their counts
+        g = data["icebergs"]
+        out["outline"] = np.stack([np.asarray(g["corner_u"], dtype=np.float64), np.asarray(g["corner_v"], dtype=np.float64)], -1)
+        out["corners"] = np.asarray(g["corners"], dtype=np.int64)
     return out

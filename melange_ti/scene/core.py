@@ -17,12 +17,13 @@ from typing import Any
 import numpy as np
 import tomllib
 
+from ..geometry import outline_problem
 from ..physics.effects import BY_NAME as EFFECT_DECLS
 from ..physics.effects import NAMES as EFFECTS
 from ..physics.effects import PAPER_EFFECTS, Effects, Key
 from . import keys as K
 from .errors import SceneError, error, fmt, one_line
-from .initial import Icebergs, check_geometry, check_time_step, from_run, generate_shelf
+from .initial import Icebergs, check_geometry, check_time_step, from_run, generate_shelf, with_outlines
 from .toml import dumps_toml, parse_value
 
 
@@ -49,7 +50,10 @@ Output = _section_class("Output", K.OUTPUT)
 Shelf = _section_class("Shelf", K.SHELF)
 Start = _section_class("Start", K.START)
 CLASSES: dict[str, type] = {"physics": Physics, "contacts": Contacts, "time": Time, "output": Output, "shelf": Shelf}
-ICEBERG_DEFAULTS = {k.name: k.default for k in K.ICEBERG}
+ICEBERG_DEFAULTS = {k.name: k.default for k in K.ICEBERG if k.name != "vertices"}  # numbers, per iceberg
+# the effects a polygon outline (``[[iceberg]] vertices``) runs with so far; every other
+# effect (contacts between polygons first) takes rectangles only (issue 33)
+POLYGON_EFFECTS = ("gravity", "buoyancy", "drag", "form_drag", "added_mass")
 INTERVALS = ("output.snapshot_interval", "output.diagnostic_interval", "output.checkpoint_interval")
 
 
@@ -78,7 +82,7 @@ class Scene:
         if self.start is not None:
             return from_run(self.start)
         cols = {k: np.array([float(b.get(k, d)) for b in self.iceberg_table]) for k, d in ICEBERG_DEFAULTS.items()}
-        return Icebergs(**cols)
+        return with_outlines([b.get("vertices") for b in self.iceberg_table], cols)
 
     @property
     def source(self) -> dict:
@@ -92,7 +96,10 @@ class Scene:
         elif self.start is not None:
             doc["start"] = dataclasses.asdict(self.start)
         else:
-            doc["iceberg"] = [{**ICEBERG_DEFAULTS, **b} for b in self.iceberg_table]
+            doc["iceberg"] = [
+                {**{k: v for k, v in ICEBERG_DEFAULTS.items() if "vertices" not in b or k not in ("width", "thickness")}, **b}
+                for b in self.iceberg_table
+            ]
         for name, entries in self.tables:
             doc[name] = [dict(t) for t in entries]
         return doc
@@ -223,7 +230,15 @@ def _iceberg_table(doc: dict) -> tuple[dict, ...] | None:
     for k, berg in enumerate(raw):
         if not isinstance(berg, dict):
             raise error(f"iceberg[{k}]", berg, "must be a table")
-        out.append(_checked(f"iceberg[{k}]", berg, K.ICEBERG))
+        values = _checked(f"iceberg[{k}]", berg, K.ICEBERG)
+        if "vertices" in values:
+            bad = outline_problem(values["vertices"])
+            if bad is None and ("width" in values or "thickness" in values):
+                bad = "gives the outline; leave out width and thickness (they follow from the corners)"
+            if bad is not None:
+                raise error(f"iceberg[{k}].vertices", values["vertices"], bad)
+            values["vertices"] = [[float(x), float(z)] for x, z in values["vertices"]]
+        out.append(values)
     return tuple(out)
 
 
@@ -388,8 +403,13 @@ def from_dict(
         start=start,
         tables=_effect_tables(doc, table is not None),
     )
+    polygon = next((k for k, b in enumerate(table or ()) if "vertices" in b), None)
+    if polygon is not None:
+        _polygon_effects(scene, f"iceberg[{polygon}].vertices", table[polygon]["vertices"], "or give width and thickness")
     # the time step's stability first: a dt far too large is not blamed on an interval
     icebergs = check_time_step(scene) if geometry else None
+    if start is not None and icebergs is not None and icebergs.outline is not None:
+        _polygon_effects(scene, "start.file", start.file, "or start from a run of rectangles")
     _whole_steps("time.duration", time.duration, time.dt)
     for key in INTERVALS:
         _whole_steps(key, getattr(parts["output"], key.split(".")[1]), time.dt)
@@ -404,6 +424,19 @@ def from_dict(
             if bad is not None:
                 raise error(*bad)
     return scene
+
+
+def _polygon_effects(scene: Scene, key: str, value: Any, instead: str) -> None:
+    """Refuse, naming ``key``, a scene with polygon outlines that names an effect they do not
+    run with yet (:data:`POLYGON_EFFECTS`)."""
+    beyond = [e for e in scene.effects.names() if e not in POLYGON_EFFECTS]
+    if beyond:
+        raise error(
+            key,
+            value,
+            f"polygon outlines run so far with {', '.join(POLYGON_EFFECTS)}; the scene names {', '.join(beyond)} "
+            f"(contacts between polygons are not built yet): leave them out of scene.effects, {instead}",
+        )
 
 
 def loads(text: str, overrides: list[tuple[str, Any]] | None = None, base: Path | None = None, geometry: bool = True) -> Scene:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..geometry import disc_local
+from ..geometry import disc_local, outline, rectangle
 from ..io.hdf5 import OutputError, SnapshotTimeError, last_snapshot
 from .errors import error
 from .keys import DT_SAFETY
@@ -42,10 +42,42 @@ class Icebergs:
     omega: np.ndarray
     width: np.ndarray
     thickness: np.ndarray
+    # polygons (any [[iceberg]] given by vertices): every outline's corners about its
+    # centroid, counter-clockwise (N, V, 2), zero past its count (N,); None: all rectangles
+    outline: np.ndarray | None = None
+    corners: np.ndarray | None = None
 
     @property
     def count(self) -> int:
         return int(self.x.shape[0])
+
+    def outlines(self, density_ratio: float) -> list[dict]:
+        """Each iceberg's outline constants (:func:`melange_ti.geometry.outline`): its corners,
+        a rectangle's from its width and thickness."""
+        if self.outline is None:
+            return [outline(rectangle(w, h), density_ratio) for w, h in zip(self.width, self.thickness, strict=True)]
+        return [outline(self.outline[i, : self.corners[i]], density_ratio) for i in range(self.count)]
+
+
+def with_outlines(bergs: list[np.ndarray | None], cols: dict) -> Icebergs:
+    """Icebergs from the columns ``cols`` and, per iceberg, its outline's corners as given
+    (``None``: a rectangle of its width and thickness): each polygon is moved so that its
+    centroid, the centre of mass, sits at the iceberg's ``x``, ``z``; its width and thickness
+    become its extents along u and v."""
+    if all(v is None for v in bergs):
+        return Icebergs(**cols)
+    n = len(bergs)
+    count = max(len(v) if v is not None else 4 for v in bergs)
+    shape = np.zeros((n, count, 2))
+    corners = np.zeros(n, dtype=np.int64)
+    width, thickness = cols["width"].copy(), cols["thickness"].copy()
+    for i, v in enumerate(bergs):
+        o = outline(rectangle(width[i], thickness[i]) if v is None else v, 1.0)
+        k = len(o["corners"])
+        shape[i, :k] = o["corners"]
+        corners[i] = k
+        width[i], thickness[i] = o["width"], o["thickness"]
+    return Icebergs(**{**cols, "width": width, "thickness": thickness}, outline=shape, corners=corners)
 
 
 def equilibrium_z(thickness: np.ndarray | float, density_ratio: float, water_level: float) -> Any:
@@ -165,6 +197,9 @@ def time_step_limit(scene: Scene, icebergs: Icebergs | None = None) -> tuple[flo
         return None
     b = icebergs if icebergs is not None else scene.icebergs()
     omega = heave_omega(b.width, b.thickness, scene.physics.density_ratio)
+    if b.outline is not None:  # a polygon's longest water line is at most its longest chord
+        r = scene.physics.density_ratio
+        omega = np.array([math.sqrt(o["diameter"] / o["mass"]) for o in b.outlines(r)])
     i = int(np.argmax(omega))
     return 2.0 / float(omega[i]), i
 

@@ -222,6 +222,14 @@ ICEBERG = (
     Key("omega", 0.0, "rad / sqrt(w/g)", "angular velocity, counter-clockwise"),
     Key("width", 1.0, "w", "width (along the body u axis)", lambda v: v > 0.0, "must be > 0"),
     Key("thickness", 1.4, "w", "thickness (along the body v axis)", lambda v: v > 0.0, "must be > 0"),
+    Key(
+        "vertices",
+        [],
+        "w",
+        "instead of width and thickness, any convex outline: its corners [[x, z], ...] in the body frame at theta = 0, "
+        "counter-clockwise, 3 to 8; the outline is moved so that its centroid (the centre of mass) sits at x, z "
+        "(docs/model.md, Outlines); so far with gravity, buoyancy, drag, form_drag and added_mass only",
+    ),
 )
 
 # The tables of a scene file and their keys; [[iceberg]] is an array of tables.

@@ -38,6 +38,7 @@ from __future__ import annotations
 import dataclasses
 from typing import NamedTuple
 
+from ...geometry import MAX_VERTICES
 from ..effects import OWNERS, REGISTRY
 from .columns import Column, E, Table
 
@@ -102,16 +103,16 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
     line1 = (
         Column("COS", "cache", "1", "cos(theta), set at the drift"),
         Column("SIN", "cache", "1", "sin(theta), set at the drift"),
-        Column("WIDTH", "constant", "w", "width, along the body u axis", "width"),
-        Column("THICK", "constant", "w", "thickness, along the body v axis", "thickness"),
+        Column("WIDTH", "constant", "w", "width, along the body u axis (a polygon: its extent along u)", "width"),
+        Column("THICK", "constant", "w", "thickness, along the body v axis (a polygon: its extent along v)", "thickness"),
         Column("RADIUS", "constant", "w", "radius of the collision discs"),
-        Column("BOUND", "constant", "w", "bounding radius, half the diagonal"),
+        Column("BOUND", "constant", "w", "bounding radius, half the diagonal (a polygon: its farthest corner)"),
         Column("MOTION", "scratch", "w", "broad phase: how far it moves at its current velocities"),
     )
     line2 = [
         Column("TH", "state", "rad", "tilt, counter-clockwise, 0 upright; continuous (not wrapped)", "theta"),
-        Column("MASS", "constant", "rho_w w^2", "mass, density_ratio * width * thickness", "mass"),
-        Column("INERTIA", "constant", "rho_w w^4", "moment of inertia, mass (w^2 + h^2) / 12", "inertia"),
+        Column("MASS", "constant", "rho_w w^2", "mass, density_ratio * width * thickness (a polygon: density_ratio * its area)", "mass"),
+        Column("INERTIA", "constant", "rho_w w^4", "moment of inertia, mass (w^2 + h^2) / 12 (a polygon: from its corners)", "inertia"),
         *effect_columns,
         Column(
             "POT_START",
@@ -128,7 +129,18 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
         spare += 1
         line2.append(Column(f"SPARE_{spare}", "scratch", "1", "unused: keeps the effects beyond the paper on their own line"))
     # cache lines follow from the position (8 f64 columns a line)
-    cols = [dataclasses.replace(c, line=k // LINE_COLUMNS) for k, c in enumerate((*line0, *line1, *line2, *beyond))]
+    # a polygon's outline (any scene with a [[iceberg]] given by vertices; Effects.vertices > 0):
+    # last, so a scene of rectangles allocates none of it
+    outline = (
+        Column("CORNERS", "constant", "1", "polygons: the outline's number of corners", owner="vertices"),
+        Column("AXIS", "constant", "rad", "polygons: the principal axis nearest v, from v (capsize angle)", owner="vertices"),
+        *(
+            Column(f"{axis}{k}", "constant", "w", f"polygons: corner {k}'s body-frame {axis.lower()}", owner="vertices")
+            for k in range(MAX_VERTICES)
+            for axis in ("U", "V")
+        ),
+    )
+    cols = [dataclasses.replace(c, line=k // LINE_COLUMNS) for k, c in enumerate((*line0, *line1, *line2, *beyond, *outline))]
     width = -(-len(cols) // LINE_COLUMNS) * LINE_COLUMNS
     return Table(
         "bodies",
@@ -371,6 +383,11 @@ class Arrays(NamedTuple):
     acc: object = None
     red: object = None  # (blocks, device.RED_WIDTH), f64: partial sums of the device's parallel parts (physics/forms/device.py)
     own: object = None  # (rows, table.size), real: the owning effect's table
+    fx: object = None  # the effect set (Effects): what a term asks of it at compile time (the outline's corners)
+
+    def ndarrays(self) -> tuple:
+        """The arrays alone, in the order the kernels take them (without ``fx``)."""
+        return tuple(self)[:-1]
 
 
 def _build():

@@ -66,7 +66,7 @@ def _named(self) -> tuple[Effect, ...]:
 
 Effects = make_dataclass(
     "Effects",
-    [*((n, bool, False) for n in NAMES), ("coloured", bool, False)],
+    [*((n, bool, False) for n in NAMES), ("coloured", bool, False), ("vertices", int, 0)],
     frozen=True,
     namespace={
         "contacts": property(_contacts),
@@ -75,7 +75,9 @@ Effects = make_dataclass(
         "named": property(_named),
         "names": _names,
         "__doc__": "Which effects are compiled into the model, and ``coloured``: the contact passes run colour by "
-        "colour (``contacts.order``, :mod:`..forms.colours`), not in body order.",
+        "colour (``contacts.order``, :mod:`..forms.colours`), not in body order; ``vertices``: the most corners of "
+        "an outline when any iceberg is a polygon (``[[iceberg]] vertices``: the kernels then read every outline "
+        "from its corners, :mod:`..shape.hydrostatics`), 0 when all are rectangles.",
     },
 )
 Effects.__module__ = __name__

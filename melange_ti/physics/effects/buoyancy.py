@@ -12,7 +12,7 @@ def _kernels():
 EFFECT = Effect(
     name="buoyancy",
     kernels=_kernels,
-    doc="exact hydrostatic force and torque of the submerged part of the rectangle under a flat sea surface",
+    doc="exact hydrostatic force and torque of the submerged part of the outline (rectangle or polygon) under a flat sea surface",
     torque=True,
     terms=("force", "potential"),
 )

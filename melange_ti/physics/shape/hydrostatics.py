@@ -1,6 +1,8 @@
-"""Exact hydrostatics of a rotated rectangle under a flat sea surface (Taichi functions).
+"""Exact hydrostatics of an iceberg's outline under a flat sea surface (Taichi functions).
 
-The submerged part is the rectangle clipped at the water line. Its area ``A`` and first
+The outline is a rectangle (from its width and thickness) or a convex polygon (from its
+corners, when the scene has one: ``Effects.vertices``); :func:`corner` alone tells them apart,
+and one clipper serves both. The submerged part is the outline clipped at the water line. Its area ``A`` and first
 moments ``Sx = int (x - x_G) dA``, ``Sz = int (z - z_G) dA`` (about the centre of mass) follow
 from Green's theorem summed edge by edge over the clipped boundary: each edge below the water
 contributes fully, an edge that crosses contributes its submerged piece, and the water-line
@@ -15,7 +17,7 @@ the CPU. On the CPU they are the literals, and the code is what it was.
 
 import taichi as ti
 
-from ..data.schema import Param
+from ..data.schema import Body, Param
 from ..forms.fmath import on_spirv
 from ..numerics import FAR
 
@@ -37,61 +39,90 @@ def _segment(px, pz, qx, qz, six):
     return ti.Vector([0.5 * cross, cross * (px + qx) / six, cross * (pz + qz) / six])
 
 
-@ti.func
-def corner(k: ti.template(), hw, hh, c, s):
-    """Corner ``k`` (CCW from the lower right in the body frame) relative to the centre."""
-    su = ti.static((1.0, 1.0, -1.0, -1.0)[k])
-    sv = ti.static((-1.0, 1.0, 1.0, -1.0)[k])
-    return ti.Vector([su * hw * c - sv * hh * s, su * hw * s + sv * hh * c])
+def polygons(a) -> bool:
+    """Whether the outlines are read from their corners (static: a scene with a polygon)."""
+    return a.fx is not None and a.fx.vertices > 0
+
+
+def corners(a) -> int:
+    """How many corners the kernels visit per outline (static): 4 for rectangles, else the
+    most corners of any polygon in the scene (``Effects.vertices``)."""
+    return a.fx.vertices if polygons(a) else 4
 
 
 @ti.func
-def _wet_edge(k: ti.template(), hw, hh, c, s, level):
-    """Edge ``k`` (corner k to k + 1, CCW) clipped at the water line ``level`` (relative to
-    the centre): its submerged piece ``a -> b``, whether any of it is submerged, whether it
-    leaves the water at ``b`` and whether it enters it at ``a``."""
-    p = corner(k, hw, hh, c, s)
-    q = corner((k + 1) % 4, hw, hh, c, s)
+def corner(a: ti.template(), i, k: ti.template(), c, s):
+    """Corner ``k`` of body ``i``'s outline, counter-clockwise, relative to its centre of mass
+    (world orientation, cos and sin of the tilt ``c``, ``s``): a rectangle's from its width
+    and thickness (from the lower right), a polygon's from its body-frame corners."""
+    r = ti.Vector([0.0, 0.0])
+    if ti.static(not polygons(a)):
+        hw, hh = 0.5 * a.b[i, Body.WIDTH], 0.5 * a.b[i, Body.THICK]
+        su = ti.static((1.0, 1.0, -1.0, -1.0)[k])
+        sv = ti.static((-1.0, 1.0, 1.0, -1.0)[k])
+        r = ti.Vector([su * hw * c - sv * hh * s, su * hw * s + sv * hh * c])
+    else:
+        u, v = a.b[i, Body.U0 + 2 * k], a.b[i, Body.U0 + 2 * k + 1]
+        r = ti.Vector([u * c - v * s, u * s + v * c])
+    return r
+
+
+@ti.func
+def _wet_edge(a: ti.template(), i, k: ti.template(), c, s, level):
+    """Edge ``k`` (corner k to the next, counter-clockwise) clipped at the water line ``level``
+    (relative to the centre): its submerged piece ``a -> b``, whether any of it is submerged,
+    whether it leaves the water at ``b`` and whether it enters it at ``a``. A polygon's edges
+    past its own corners are dry (the kernels visit the scene's most corners)."""
+    n = ti.static(corners(a))
+    p = corner(a, i, k, c, s)
+    q = corner(a, i, (k + 1) % n, c, s)
     p_wet = p[1] < level
     q_wet = q[1] < level
-    a = p
-    b = q
+    if ti.static(polygons(a)):
+        count = ti.cast(a.b[i, Body.CORNERS], ti.i32)
+        if k + 1 == count:
+            q = corner(a, i, 0, c, s)  # the closing edge
+            q_wet = q[1] < level
+        elif k + 1 > count:
+            p_wet = False
+            q_wet = False
+    pa = p
+    pb = q
     leaves = 0
     enters = 0
     if p_wet != q_wet:
         t = (level - p[1]) / (q[1] - p[1])
         cut = ti.Vector([p[0] + t * (q[0] - p[0]), level])
         if p_wet:
-            b = cut
+            pb = cut
             leaves = 1
         else:
-            a = cut
+            pa = cut
             enters = 1
-    return a, b, ti.cast(p_wet or q_wet, ti.i32), leaves, enters
+    return pa, pb, ti.cast(p_wet or q_wet, ti.i32), leaves, enters
 
 
 @ti.func
-def submerged_moments(z, c, s, hw, hh, water_level, six):
-    """(A, Sx, Sz) of the part of the rectangle below ``water_level``.
-
-    ``z``: centre height; ``c``, ``s``: cosine and sine of the tilt (CCW); ``hw``, ``hh``:
-    half width and half thickness; ``six``: 6, read at run time (above). Moments are about
-    the centre of mass, so the buoyancy torque is ``rho g Sx``.
+def submerged_moments(a: ti.template(), i, water_level, six):
+    """(A, Sx, Sz) of the part of body ``i``'s outline below ``water_level``, at its pose
+    (centre height, cached cos and sin of the tilt); ``six``: 6, read at run time (above).
+    Moments are about the centre of mass, so the buoyancy torque is ``rho g Sx``.
     """
-    level = water_level - z
+    level = water_level - a.b[i, Body.Z]
+    c, s = a.b[i, Body.COS], a.b[i, Body.SIN]
     m = ti.Vector([0.0, 0.0, 0.0])
     exit_pt = ti.Vector([0.0, 0.0])
     entry_pt = ti.Vector([0.0, 0.0])
     crossed = 0
-    for k in ti.static(range(4)):
-        a, b, wet, leaves, enters = _wet_edge(k, hw, hh, c, s, level)
+    for k in ti.static(range(corners(a))):
+        pa, pb, wet, leaves, enters = _wet_edge(a, i, k, c, s, level)
         if wet:
-            m += _segment(a[0], a[1], b[0], b[1], six)
+            m += _segment(pa[0], pa[1], pb[0], pb[1], six)
         if leaves:
-            exit_pt = b
+            exit_pt = pb
             crossed = 1
         if enters:
-            entry_pt = a
+            entry_pt = pa
             crossed = 1
     if crossed:
         m += _segment(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1], six)
@@ -114,14 +145,15 @@ def _cube_integral(a, b, length):
 
 
 @ti.func
-def wetted(z, c, s, hw, hh, water_level, ux, uz, six, twelve):
-    """The submerged part of the rectangle, for the water's dynamic loads (form drag, added
+def wetted(a: ti.template(), i, water_level, ux, uz, six, twelve):
+    """The submerged part of body ``i``'s outline, for the water's dynamic loads (form drag, added
     mass): its area ``A``, polar second moment ``J = int |r|^2 dA`` about the centre of mass,
     its width projected on the unit direction (ux, uz), ``P = max r.u - min r.u``, and
     ``R3 = int over the wetted faces of |r x n|^3 ds`` (n the face's normal), the lever-arm
     integral of a quadratic pressure drag on rotation. Relative to the centre of mass.
     ``six``, ``twelve``: 6 and 12, read at run time (above)."""
-    level = water_level - z
+    level = water_level - a.b[i, Body.Z]
+    c, s = a.b[i, Body.COS], a.b[i, Body.SIN]
     area = 0.0
     second = ti.Vector([0.0, 0.0])
     lo = FAR
@@ -130,30 +162,30 @@ def wetted(z, c, s, hw, hh, water_level, ux, uz, six, twelve):
     exit_pt = ti.Vector([0.0, 0.0])
     entry_pt = ti.Vector([0.0, 0.0])
     crossed = 0
-    for k in ti.static(range(4)):
-        a, b, wet, leaves, enters = _wet_edge(k, hw, hh, c, s, level)
+    for k in ti.static(range(corners(a))):
+        pa, pb, wet, leaves, enters = _wet_edge(a, i, k, c, s, level)
         if leaves:
-            exit_pt = b
+            exit_pt = pb
             crossed = 1
         if enters:
-            entry_pt = a
+            entry_pt = pa
             crossed = 1
         if wet:
-            m = _segment(a[0], a[1], b[0], b[1], six)
+            m = _segment(pa[0], pa[1], pb[0], pb[1], six)
             area += m[0]
-            second += _second(a[0], a[1], b[0], b[1], twelve)
+            second += _second(pa[0], pa[1], pb[0], pb[1], twelve)
             for end in ti.static(range(2)):
-                pt = a if end == 0 else b
+                pt = pa if end == 0 else pb
                 proj = pt[0] * ux + pt[1] * uz
                 lo = ti.min(lo, proj)
                 hi = ti.max(hi, proj)
             # the face's unit tangent t and outward normal n = (t_z, -t_x) of a CCW polygon:
             # r x n = r_x n_z - r_z n_x = -(r . t), linear along the face with slope -1
-            length = ti.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2)
+            length = ti.sqrt((pb[0] - pa[0]) ** 2 + (pb[1] - pa[1]) ** 2)
             if length > 0:
-                tx = (b[0] - a[0]) / length
-                tz = (b[1] - a[1]) / length
-                r3 += _cube_integral(-(a[0] * tx + a[1] * tz), -1.0, length)
+                tx = (pb[0] - pa[0]) / length
+                tz = (pb[1] - pa[1]) / length
+                r3 += _cube_integral(-(pa[0] * tx + pa[1] * tz), -1.0, length)
     if crossed:
         m = _segment(exit_pt[0], exit_pt[1], entry_pt[0], entry_pt[1], six)
         area += m[0]

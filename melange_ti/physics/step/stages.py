@@ -254,7 +254,7 @@ def steps_serial(
     own: arr,
 ):
     """``steps`` whole steps in one call, every loop serial (small N: no launch costs)."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, own))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, own, fx))
     ti.loop_config(serialize=True)
     for _ in range(1):
         for i in range(b.shape[0]):
@@ -284,7 +284,7 @@ def run_part(
     own: arr,
 ):
     """One part of a stage; its outer loop over bodies is parallel unless it is sequential."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, own))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, own, fx))
     if ti.static(part.sequential):
         ti.loop_config(serialize=True)
         for _ in range(1):
@@ -350,7 +350,7 @@ def sample_into(fx: ti.template(), a: ti.template(), out: ti.template(), out_acc
 def sample_all(fx: ti.template(), b: arr, par: arr, acc: arr, cnt: arr, out: arr, out_acc: arr, out_cnt: arr):
     """Sample 0 of ``out`` (:func:`sample_into`): one launch, and no transfer where the
     outputs are the host's own numpy arrays (on the CPU Taichi writes them in place)."""
-    a = ti.static(Arrays(b=b, par=par, cnt=cnt, acc=acc))
+    a = ti.static(Arrays(b=b, par=par, cnt=cnt, acc=acc, fx=fx))
     sample_into(fx, a, out, out_acc, out_cnt, 0)
 
 
@@ -392,7 +392,7 @@ def steps_serial_sampled(
     ``segments[1]`` steps, sample 1, ...: a run's output events between two writes in one
     launch. The same bits as one call per segment (the tilts' cos and sin are the ones
     :func:`forces.orient` would give)."""
-    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, own))
+    a = ti.static(Arrays(b, bi, cd, cp, nl, nr, cells, par, scr, cfg, cnt, acc, red, own, fx))
     ti.loop_config(serialize=True)
     for _ in range(1):
         for i in range(b.shape[0]):

@@ -8,10 +8,8 @@ from ...shape.hydrostatics import divisors, wetted
 
 @ti.func
 def _added(a: ti.template(), i):
-    b = ti.static(a.b)
     six, twelve = divisors(a.par)
-    hw, hh = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK]
-    w = wetted(b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN], hw, hh, a.par[Param.WATER], 1.0, 0.0, six, twelve)
+    w = wetted(a, i, a.par[Param.WATER], 1.0, 0.0, six, twelve)
     return ti.Vector([a.par[Param.ADDED_MASS] * w[0], a.par[Param.ADDED_INERTIA] * w[1]])
 
 

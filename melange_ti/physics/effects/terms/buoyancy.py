@@ -8,11 +8,8 @@ from ...shape.hydrostatics import divisors, submerged_moments
 
 @ti.func
 def _moments(a: ti.template(), i):
-    b = ti.static(a.b)
     six, _ = divisors(a.par)
-    return submerged_moments(
-        b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN], 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], a.par[Param.WATER], six
-    )
+    return submerged_moments(a, i, a.par[Param.WATER], six)
 
 
 @ti.func

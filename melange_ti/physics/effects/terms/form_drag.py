@@ -16,8 +16,7 @@ def damp(a: ti.template(), i, m, inertia):
     if speed > 0:
         ux, uz = -vz / speed, vx / speed
     six, twelve = divisors(a.par)
-    hw, hh = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK]
-    w = wetted(b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN], hw, hh, a.par[Param.WATER], ux, uz, six, twelve)
+    w = wetted(a, i, a.par[Param.WATER], ux, uz, six, twelve)
     half_cd = 0.5 * a.par[Param.FORM_DRAG]
     lin = 1.0 / (1.0 + half_cd * w[2] / m * speed * dt)
     ang = 1.0 / (1.0 + half_cd * w[3] / inertia * ti.abs(om) * dt)
