@@ -7,6 +7,7 @@ against these formulas. Units: widths, g = rho_w = 1 (docs/model.md).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -305,3 +306,73 @@ def world_outlines(x, z, theta, body: np.ndarray) -> np.ndarray:
     c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
     u, v = body[..., 0], body[..., 1]
     return np.stack([x[:, None] + u * c - v * s, z[:, None] + u * s + v * c], -1)
+
+
+# ---------------------------------------------------------------- a polygon's collision discs
+def inset(corners: np.ndarray, r: float) -> np.ndarray:
+    """The outline ``corners`` (K, 2; convex, counter-clockwise) moved inwards by ``r``: each
+    corner where the two edges meeting there, each shifted ``r`` along its inward normal,
+    cross. A disc of radius ``r`` there touches both edges."""
+    p = np.asarray(corners, dtype=float)
+    e = np.roll(p, -1, axis=0) - p
+    n = np.stack([-e[:, 1], e[:, 0]], -1) / np.hypot(e[:, 0], e[:, 1])[:, None]  # inward (CCW)
+    before = np.roll(n, 1, axis=0)  # the edge that ends at corner k
+    return p + r * (before + n) / (1.0 + np.sum(before * n, axis=1))[:, None]
+
+
+def polygon_discs(corners: np.ndarray, discs: int, spacing: float = 2.0) -> tuple[float, np.ndarray, np.ndarray]:
+    """:func:`_polygon_discs`, remembered per outline (a shelf repeats few)."""
+    p = np.asarray(corners, dtype=float)
+    r, q, n = _discs_of(p.tobytes(), len(p), int(discs), float(spacing))
+    return r, q.copy(), n.copy()
+
+
+@functools.lru_cache(maxsize=4096)
+def _discs_of(key: bytes, count: int, discs: int, spacing: float):
+    return _polygon_discs(np.frombuffer(key, dtype=float).reshape(count, 2), discs, spacing)
+
+
+def _polygon_discs(corners: np.ndarray, discs: int, spacing: float = 2.0) -> tuple[float, np.ndarray, np.ndarray]:
+    """A polygon's collision discs, as the rectangle's rule per edge: one radius ``r``; their
+    centres on the outline moved inwards by ``r`` (:func:`inset`; so the union touches every
+    face and each corner has a disc touching both faces that meet there), each edge ``e``
+    holding ``n_e = ceil(L_e / (spacing r))`` discs from its inset corner, equally spaced
+    (``L_e`` the inset edge's length: no gap between neighbours wider than ``spacing r``),
+    and ``r`` the smallest with ``sum n_e <= discs`` (bisection). Returns ``(r, inset
+    corners (K, 2), n (K,))``; ``r = 0`` when no radius fits: the outline's edges vanish
+    inwards before the discs are few enough (too few ``discs`` for its shape)."""
+    p = np.asarray(corners, dtype=float)
+
+    def counts(r: float) -> np.ndarray | None:
+        q = inset(p, r)
+        e = np.roll(q, -1, axis=0) - q
+        d = np.roll(p, -1, axis=0) - p
+        if np.any(np.sum(e * d, axis=1) <= 0):  # an edge turned over: r too large
+            return None
+        return np.maximum(1, np.ceil(np.hypot(e[:, 0], e[:, 1]) / (spacing * r) - 1e-12)).astype(np.int64)
+
+    lo, hi = 0.0, float(np.hypot(*(p - p.mean(0)).T).max())
+    for _ in range(100):  # the largest radius before an edge turns over
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if counts(mid) is not None else (lo, mid)
+    top = lo
+    if counts(top) is None or counts(top).sum() > discs:
+        return 0.0, p.copy(), np.zeros(len(p), dtype=np.int64)
+    lo, hi = 0.0, top
+    for _ in range(100):  # the smallest radius whose discs are few enough
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if counts(mid).sum() <= discs else (mid, hi)
+    return hi, inset(p, hi), counts(hi)
+
+
+def polygon_disc_local(corners: np.ndarray, discs: int, spacing: float = 2.0) -> tuple[np.ndarray, float]:
+    """Body-frame disc centres (discs, 2) and radius of a polygon (:func:`polygon_discs`):
+    edge by edge from each inset corner; past the polygon's own count the last disc repeats
+    (the kernels skip those)."""
+    r, q, n = polygon_discs(corners, discs, spacing)
+    out = []
+    for k in range(len(q)):
+        a, b = q[k], q[(k + 1) % len(q)]
+        out += [a + (j / n[k]) * (b - a) for j in range(n[k])]
+    out = np.array(out) if out else np.zeros((1, 2))
+    return np.concatenate([out, np.repeat(out[-1:], max(0, discs - len(out)), 0)]), r

@@ -26,7 +26,7 @@ import taichi as ti
 
 from . import runtime  # noqa: F401  (imported for its patch: Taichi reuses source-position text)
 from .errors import ContactOverflow
-from .geometry import disc_radius, mass_inertia
+from .geometry import disc_radius, mass_inertia, polygon_discs
 from .physics.data.schema import (
     ACC_LEDGERS,
     ACCUMULATORS,
@@ -155,7 +155,7 @@ class Model:
         ncells = 1 << max(2, math.ceil(math.log2(max(n, 4)))) if self.fx.collisions else 4
         # candidate lists for the narrow phase, in both forms: the same contacts bit for bit,
         # found faster at every N (docs/performance.md)
-        self.lists = bool(self.fx.collisions)
+        self.lists = bool(self.fx.collisions) and not self.fx.vertices  # polygons: a search every step
         nc = n if self.contacts else 1
         nlists = n if self.lists else 1
 
@@ -195,12 +195,17 @@ class Model:
             rows[:, Body.AXIS] = [o["axis"] for o in outlines]
             for i, o in enumerate(outlines):
                 rows[i, Body.U0 : Body.U0 + o["corners"].size] = o["corners"].ravel()
+                r, inner, count = polygon_discs(o["corners"], scene.contacts.discs, scene.contacts.disc_spacing)
+                rows[i, Body.IU0 : Body.IU0 + inner.size] = inner.ravel()
+                rows[i, Body.NDISC0 : Body.NDISC0 + count.size] = count
+                rows[i, Body.RADIUS] = r
         self.axis = rows[:, Body.AXIS].copy() if bergs.outline is not None else None
         rows[:, Body.WIDTH] = bergs.width
         rows[:, Body.THICK] = bergs.thickness
         rows[:, Body.MASS] = mass
         rows[:, Body.INERTIA] = inertia
-        rows[:, Body.RADIUS] = disc_radius(bergs.width, bergs.thickness, scene.contacts.discs, scene.contacts.disc_spacing)
+        if bergs.outline is None:
+            rows[:, Body.RADIUS] = disc_radius(bergs.width, bergs.thickness, scene.contacts.discs, scene.contacts.disc_spacing)
         rows[:, Body.BOUND] = bound
         for name, col in BODIES.outputs("state").items():
             rows[:, col] = getattr(bergs, name)

@@ -52,8 +52,8 @@ Start = _section_class("Start", K.START)
 CLASSES: dict[str, type] = {"physics": Physics, "contacts": Contacts, "time": Time, "output": Output, "shelf": Shelf}
 ICEBERG_DEFAULTS = {k.name: k.default for k in K.ICEBERG if k.name != "vertices"}  # numbers, per iceberg
 # the effects a polygon outline (``[[iceberg]] vertices``) runs with so far; every other
-# effect (contacts between polygons first) takes rectangles only (issue 33)
-POLYGON_EFFECTS = ("gravity", "buoyancy", "drag", "form_drag", "added_mass")
+# effect takes rectangles only (issue 33)
+POLYGON_EFFECTS = ("gravity", "buoyancy", "drag", "form_drag", "added_mass", "collisions", "wall", "friction")
 INTERVALS = ("output.snapshot_interval", "output.diagnostic_interval", "output.checkpoint_interval")
 
 
@@ -435,7 +435,7 @@ def _polygon_effects(scene: Scene, key: str, value: Any, instead: str) -> None:
             key,
             value,
             f"polygon outlines run so far with {', '.join(POLYGON_EFFECTS)}; the scene names {', '.join(beyond)} "
-            f"(contacts between polygons are not built yet): leave them out of scene.effects, {instead}",
+            f"(not built for polygons yet): leave them out of scene.effects, {instead}",
         )
 
 

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..geometry import disc_local, outline, rectangle
+from ..geometry import disc_local, outline, polygon_disc_local, rectangle
 from ..io.hdf5 import OutputError, SnapshotTimeError, last_snapshot
 from .errors import error
 from .keys import DT_SAFETY
@@ -233,6 +233,28 @@ def check_geometry(scene: Scene, icebergs: Icebergs | None = None) -> None:
             raise error(f"iceberg.{name}", arr[~np.isfinite(arr)][0], "must be finite")
     if not scene.effects.contacts:
         return
+    spacing = scene.contacts.disc_spacing
+    if b.outline is not None:  # polygons: each one's own discs (geometry.polygon_discs)
+        layouts = [polygon_disc_local(b.outline[i, : b.corners[i]], scene.contacts.discs, spacing) for i in range(b.count)]
+        worst = next((i for i, (_, r) in enumerate(layouts) if r <= 0), None)
+        if worst is not None:
+            raise error(
+                "contacts.discs",
+                scene.contacts.discs,
+                f"too few for iceberg {worst}'s outline: no disc radius leaves its discs no farther apart than "
+                f"{spacing:g} radii without an edge vanishing; use more",
+            )
+        local, r = np.stack([q for q, _ in layouts]), np.array([r for _, r in layouts])
+    else:
+        local, r = _rectangle_discs(scene, b)
+    if scene.effects.wall:
+        _check_wall(scene, b, local, r)
+    if scene.effects.collisions and b.count > 1:
+        _check_pairs(scene, b, local, r)
+
+
+def _rectangle_discs(scene: Scene, b: Icebergs) -> tuple[np.ndarray, np.ndarray]:
+    """The rectangles' discs (:func:`..geometry.disc_local`), refusing too few for an aspect ratio."""
     # The radius may not exceed half the shortest face: L / (k s + 2) <= l / 2.
     spacing = scene.contacts.disc_spacing
     aspect = np.maximum(b.width, b.thickness) / np.minimum(b.width, b.thickness)
@@ -246,11 +268,7 @@ def check_geometry(scene: Scene, icebergs: Icebergs | None = None) -> None:
             f"too few for iceberg {worst} of aspect ratio {aspect[worst]:.3g}: disc spacing on its long face "
             f"would exceed 2*radius (holes); use at least {need}",
         )
-    local, r = disc_local(b.width, b.thickness, scene.contacts.discs, spacing)
-    if scene.effects.wall:
-        _check_wall(scene, b, local, r)
-    if scene.effects.collisions and b.count > 1:
-        _check_pairs(scene, b, local, r)
+    return disc_local(b.width, b.thickness, scene.contacts.discs, spacing)
 
 
 def _where(scene: Scene, i: int) -> tuple[str, Any]:
@@ -280,6 +298,8 @@ def _check_wall(scene: Scene, b: Icebergs, local: np.ndarray, r: np.ndarray) -> 
 
 def _check_pairs(scene: Scene, b: Icebergs, local: np.ndarray, r: np.ndarray) -> None:
     bound = 0.5 * np.hypot(b.width, b.thickness)
+    if b.outline is not None:  # polygons: the farthest corner (zeros past a count are nearer)
+        bound = np.hypot(b.outline[..., 0], b.outline[..., 1]).max(axis=1)
     order = np.argsort(b.x, kind="stable")
     xs = b.x[order]
     reach = 2.0 * bound.max()

@@ -111,8 +111,20 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
     )
     line2 = [
         Column("TH", "state", "rad", "tilt, counter-clockwise, 0 upright; continuous (not wrapped)", "theta"),
-        Column("MASS", "constant", "rho_w w^2", "mass, density_ratio * width * thickness (a polygon: density_ratio * its area)", "mass"),
-        Column("INERTIA", "constant", "rho_w w^4", "moment of inertia, mass (w^2 + h^2) / 12 (a polygon: from its corners)", "inertia"),
+        Column(
+            "MASS",
+            "constant",
+            "rho_w w^2",
+            "mass, density_ratio * width * thickness (a polygon: density_ratio * its area)",
+            "mass",
+        ),
+        Column(
+            "INERTIA",
+            "constant",
+            "rho_w w^4",
+            "moment of inertia, mass (w^2 + h^2) / 12 (a polygon: from its corners)",
+            "inertia",
+        ),
         *effect_columns,
         Column(
             "POT_START",
@@ -139,6 +151,14 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
             for k in range(MAX_VERTICES)
             for axis in ("U", "V")
         ),
+        # the collision discs (geometry.polygon_discs): the outline moved inwards by the radius,
+        # and how many discs each edge holds from its inset corner
+        *(
+            Column(f"I{axis}{k}", "constant", "w", f"polygons: inset corner {k}'s body-frame {axis.lower()}", owner="vertices")
+            for k in range(MAX_VERTICES)
+            for axis in ("U", "V")
+        ),
+        *(Column(f"NDISC{k}", "constant", "1", f"polygons: discs on edge {k}", owner="vertices") for k in range(MAX_VERTICES)),
     )
     cols = [dataclasses.replace(c, line=k // LINE_COLUMNS) for k, c in enumerate((*line0, *line1, *line2, *beyond, *outline))]
     width = -(-len(cols) // LINE_COLUMNS) * LINE_COLUMNS

@@ -4,10 +4,14 @@ Each rectangle carries ``discs`` equal discs, ``k = discs/4`` per face, their ce
 evenly around the rectangle inset by the radius (face ``f`` starts at an inset corner and
 takes ``k`` equal steps towards the next), so the union is tangent to the true faces and the
 spacing on the longest face is exactly ``2 radius`` (see :func:`melange_ti.geometry.disc_radius`).
+A polygon's discs (a scene with one: ``Effects.vertices``) lie edge by edge from the corners
+of its outline moved inwards by the radius (:func:`polygon_disc`; the layout of
+:func:`melange_ti.geometry.polygon_discs`).
 """
 
 import taichi as ti
 
+from ..data.schema import Body
 from ..numerics import TINY
 
 
@@ -83,3 +87,18 @@ def line_window(a0, d, limit, lo, hi):
         lo_out = 1
         hi_out = 0
     return lo_out, hi_out
+
+
+@ti.func
+def polygon_disc(a: ti.template(), i, e, j):
+    """Disc ``j`` of edge ``e`` of body ``i``'s polygon, in its body frame: from the edge's
+    inset corner towards the next in ``NDISC{e}`` equal steps (:func:`melange_ti.geometry.polygon_discs`)."""
+    b = ti.static(a.b)
+    count = ti.cast(b[i, Body.CORNERS], ti.i32)
+    e1 = e + 1
+    if e1 >= count:
+        e1 = 0
+    pu, pv = b[i, Body.IU0 + 2 * e], b[i, Body.IU0 + 2 * e + 1]
+    qu, qv = b[i, Body.IU0 + 2 * e1], b[i, Body.IU0 + 2 * e1 + 1]
+    t = j / b[i, Body.NDISC0 + e]
+    return ti.Vector([pu + t * (qu - pu), pv + t * (qv - pv)])

@@ -51,13 +51,22 @@ def corners(a) -> int:
 
 
 @ti.func
-def corner(a: ti.template(), i, k: ti.template(), c, s):
-    """Corner ``k`` of body ``i``'s outline, counter-clockwise, relative to its centre of mass
-    (world orientation, cos and sin of the tilt ``c``, ``s``): a rectangle's from its width
-    and thickness (from the lower right), a polygon's from its body-frame corners."""
-    r = ti.Vector([0.0, 0.0])
+def halves(a: ti.template(), i):
+    """A rectangle's half width and half thickness (read once per clipping; 0 for polygons)."""
+    hw, hh = 0.0, 0.0
     if ti.static(not polygons(a)):
         hw, hh = 0.5 * a.b[i, Body.WIDTH], 0.5 * a.b[i, Body.THICK]
+    return hw, hh
+
+
+@ti.func
+def corner(a: ti.template(), i, k: ti.template(), c, s, hw, hh):
+    """Corner ``k`` of body ``i``'s outline, counter-clockwise, relative to its centre of mass
+    (world orientation, cos and sin of the tilt ``c``, ``s``): a rectangle's from its half
+    width and thickness ``hw``, ``hh`` (:func:`halves`; from the lower right), a polygon's from
+    its body-frame corners."""
+    r = ti.Vector([0.0, 0.0])
+    if ti.static(not polygons(a)):
         su = ti.static((1.0, 1.0, -1.0, -1.0)[k])
         sv = ti.static((-1.0, 1.0, 1.0, -1.0)[k])
         r = ti.Vector([su * hw * c - sv * hh * s, su * hw * s + sv * hh * c])
@@ -68,20 +77,20 @@ def corner(a: ti.template(), i, k: ti.template(), c, s):
 
 
 @ti.func
-def _wet_edge(a: ti.template(), i, k: ti.template(), c, s, level):
+def _wet_edge(a: ti.template(), i, k: ti.template(), c, s, hw, hh, level):
     """Edge ``k`` (corner k to the next, counter-clockwise) clipped at the water line ``level``
     (relative to the centre): its submerged piece ``a -> b``, whether any of it is submerged,
     whether it leaves the water at ``b`` and whether it enters it at ``a``. A polygon's edges
     past its own corners are dry (the kernels visit the scene's most corners)."""
     n = ti.static(corners(a))
-    p = corner(a, i, k, c, s)
-    q = corner(a, i, (k + 1) % n, c, s)
+    p = corner(a, i, k, c, s, hw, hh)
+    q = corner(a, i, (k + 1) % n, c, s, hw, hh)
     p_wet = p[1] < level
     q_wet = q[1] < level
     if ti.static(polygons(a)):
         count = ti.cast(a.b[i, Body.CORNERS], ti.i32)
         if k + 1 == count:
-            q = corner(a, i, 0, c, s)  # the closing edge
+            q = corner(a, i, 0, c, s, hw, hh)  # the closing edge
             q_wet = q[1] < level
         elif k + 1 > count:
             p_wet = False
@@ -108,6 +117,7 @@ def submerged_moments(a: ti.template(), i, water_level, six):
     (centre height, cached cos and sin of the tilt); ``six``: 6, read at run time (above).
     Moments are about the centre of mass, so the buoyancy torque is ``rho g Sx``.
     """
+    hw, hh = halves(a, i)
     level = water_level - a.b[i, Body.Z]
     c, s = a.b[i, Body.COS], a.b[i, Body.SIN]
     m = ti.Vector([0.0, 0.0, 0.0])
@@ -115,7 +125,7 @@ def submerged_moments(a: ti.template(), i, water_level, six):
     entry_pt = ti.Vector([0.0, 0.0])
     crossed = 0
     for k in ti.static(range(corners(a))):
-        pa, pb, wet, leaves, enters = _wet_edge(a, i, k, c, s, level)
+        pa, pb, wet, leaves, enters = _wet_edge(a, i, k, c, s, hw, hh, level)
         if wet:
             m += _segment(pa[0], pa[1], pb[0], pb[1], six)
         if leaves:
@@ -152,6 +162,7 @@ def wetted(a: ti.template(), i, water_level, ux, uz, six, twelve):
     ``R3 = int over the wetted faces of |r x n|^3 ds`` (n the face's normal), the lever-arm
     integral of a quadratic pressure drag on rotation. Relative to the centre of mass.
     ``six``, ``twelve``: 6 and 12, read at run time (above)."""
+    hw, hh = halves(a, i)
     level = water_level - a.b[i, Body.Z]
     c, s = a.b[i, Body.COS], a.b[i, Body.SIN]
     area = 0.0
@@ -163,7 +174,7 @@ def wetted(a: ti.template(), i, water_level, ux, uz, six, twelve):
     entry_pt = ti.Vector([0.0, 0.0])
     crossed = 0
     for k in ti.static(range(corners(a))):
-        pa, pb, wet, leaves, enters = _wet_edge(a, i, k, c, s, level)
+        pa, pb, wet, leaves, enters = _wet_edge(a, i, k, c, s, hw, hh, level)
         if leaves:
             exit_pt = pb
             crossed = 1

@@ -24,7 +24,8 @@ import taichi as ti
 from ..data.schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Param
 from ..effects import JOINED, JOINED_WALL
 from ..numerics import FAR, TINY
-from ..shape.discs import face_line, line_window
+from ..shape.discs import face_line, line_window, polygon_disc
+from ..shape.hydrostatics import polygons
 from . import wall
 from .broad import cell_size, margin, reach
 
@@ -146,6 +147,13 @@ def pair_term(fb, perp, off, d2, au, av, ri, rj):
         du_, dv_ = perp, -off
     elif fb == 3:
         du_, dv_ = off, perp
+    return offset_term(du_, dv_, d2, au, av, ri, rj)
+
+
+@ti.func
+def offset_term(du_, dv_, d2, au, av, ri, rj):
+    """Gap and weighted-sum term of a disc pair whose offset from j's disc to i's disc (at
+    (au, av)) is (du_, dv_) in j's frame, ``d2 = du_^2 + dv_^2 > 0``."""
     dist = ti.sqrt(d2)
     g = dist - ri - rj
     inv = 1.0 / dist
@@ -159,6 +167,12 @@ def add_pair(fb, perp, off, d2, au, av, ri, rj, motion, rch, near, standby, gap)
     within this step (``near``, weighted by ``motion - g``) and of all pairs (``standby``,
     by ``rch - g``), and its gap to the smallest; returns the three."""
     g, term = pair_term(fb, perp, off, d2, au, av, ri, rj)
+    return add_term(g, term, motion, rch, near, standby, gap)
+
+
+@ti.func
+def add_term(g, term, motion, rch, near, standby, gap):
+    """:func:`add_pair` for a pair's gap and term."""
     n, sb = near, standby
     if g < motion:
         n += (motion - g) * term
@@ -349,25 +363,69 @@ def narrow(a: ti.template(), i, j, rch, motion):
             a.nr[i, entry, ListPose.S] = s
             a.nr[i, entry, ListPose.KEEP] = keep
     if gap < rch:
-        sums = near
-        if near[0] <= 0:
-            sums = standby
-        wsum = sums[0]
-        qu = sums[1] / wsum
-        qv = sums[2] / wsum
-        nx = sums[3] * cj - sums[4] * sj
-        nz = sums[3] * sj + sums[4] * cj
+        merge(a, i, j, near, standby, gap, xi, zi, xj, zj, cj, sj)
+
+
+@ti.func
+def merge(a: ti.template(), i, j, near, standby, gap, xi, zi, xj, zj, cj, sj):
+    """The pair's one contact from its disc pairs' sums (in j's frame): the closing pairs'
+    (``near``), or, if none closes, the standby sums; the poses as the caller read them."""
+    sums = near
+    if near[0] <= 0:
+        sums = standby
+    wsum = sums[0]
+    qu = sums[1] / wsum
+    qv = sums[2] / wsum
+    nx = sums[3] * cj - sums[4] * sj
+    nz = sums[3] * sj + sums[4] * cj
+    nn = ti.sqrt(nx * nx + nz * nz)
+    if nn <= TINY * wsum:
+        # symmetric overlap: the disc normals cancel; push along the centre line instead
+        nx = xi - xj
+        nz = zi - zj
         nn = ti.sqrt(nx * nx + nz * nz)
-        if nn <= TINY * wsum:
-            # symmetric overlap: the disc normals cancel; push along the centre line instead
-            nx = xi - xj
-            nz = zi - zj
-            nn = ti.sqrt(nx * nx + nz * nz)
-            if nn <= 0:
-                nx = 1.0
-                nz = 0.0
-                nn = 1.0
-        insert_contact(a, i, j, xj + qu * cj - qv * sj, zj + qu * sj + qv * cj, nx / nn, nz / nn, gap)
+        if nn <= 0:
+            nx = 1.0
+            nz = 0.0
+            nn = 1.0
+    insert_contact(a, i, j, xj + qu * cj - qv * sj, zj + qu * sj + qv * cj, nx / nn, nz / nn, gap)
+
+
+@ti.func
+def narrow_polygons(a: ti.template(), i, j, rch, motion):
+    """:func:`narrow` for polygons (a scene with one): every disc of i within reach of j's
+    bounding circle against every disc of j, in a fixed order (i's edge, i's disc, j's edge,
+    j's disc), the sums in j's frame as for rectangles. No candidate lists: each step searches."""
+    b = ti.static(a.b)
+    ci, si, cj, sj = b[i, Body.COS], b[i, Body.SIN], b[j, Body.COS], b[j, Body.SIN]
+    ri, rj = b[i, Body.RADIUS], b[j, Body.RADIUS]
+    dx = b[i, Body.X] - b[j, Body.X]
+    dz = b[i, Body.Z] - b[j, Body.Z]
+    touch = ri + rj + rch
+    touch2 = touch * touch
+    lim = b[j, Body.BOUND] + ri + rch
+    near = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
+    standby = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
+    gap = FAR
+    for ea in range(ti.cast(b[i, Body.CORNERS], ti.i32)):
+        for ia in range(ti.cast(b[i, Body.NDISC0 + ea], ti.i32)):
+            p = polygon_disc(a, i, ea, ia)
+            wx = dx + p[0] * ci - p[1] * si  # i's disc from j's centre, world
+            wz = dz + p[0] * si + p[1] * ci
+            au = wx * cj + wz * sj  # in j's frame
+            av = -wx * sj + wz * cj
+            if au * au + av * av < lim * lim:
+                for eb in range(ti.cast(b[j, Body.CORNERS], ti.i32)):
+                    for ib in range(ti.cast(b[j, Body.NDISC0 + eb], ti.i32)):
+                        q = polygon_disc(a, j, eb, ib)
+                        du_ = au - q[0]
+                        dv_ = av - q[1]
+                        d2 = du_ * du_ + dv_ * dv_
+                        if d2 < touch2 and d2 > 0:
+                            g, term = offset_term(du_, dv_, d2, au, av, ri, rj)
+                            near, standby, gap = add_term(g, term, motion, rch, near, standby, gap)
+    if gap < rch:
+        merge(a, i, j, near, standby, gap, b[i, Body.X], b[i, Body.Z], b[j, Body.X], b[j, Body.Z], cj, sj)
 
 
 @ti.func
@@ -393,7 +451,10 @@ def detect(fx: ti.template(), a: ti.template(), i, size):
                     lim = b[i, Body.BOUND] + b[j, Body.BOUND] + rch
                     if dx * dx + dz * dz < lim * lim:
                         if not held(fx, a, i, j):
-                            narrow(a, i, j, rch, b[i, Body.MOTION] + b[j, Body.MOTION])
+                            if ti.static(polygons(a)):
+                                narrow_polygons(a, i, j, rch, b[i, Body.MOTION] + b[j, Body.MOTION])
+                            else:
+                                narrow(a, i, j, rch, b[i, Body.MOTION] + b[j, Body.MOTION])
     if ti.static(fx.wall):
         if not held_wall(fx, a, i):
             wall.detect(a, i)
