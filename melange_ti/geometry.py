@@ -376,3 +376,17 @@ def polygon_disc_local(corners: np.ndarray, discs: int, spacing: float = 2.0) ->
         out += [a + (j / n[k]) * (b - a) for j in range(n[k])]
     out = np.array(out) if out else np.zeros((1, 2))
     return np.concatenate([out, np.repeat(out[-1:], max(0, discs - len(out)), 0)]), r
+
+
+
+def floating_height(corners: np.ndarray, density_ratio: float) -> float:
+    """The height of the centroid above the water line at which the outline ``corners``
+    (about its centroid, at theta = 0) floats: the submerged share ``density_ratio`` of its
+    area (bisection of :func:`below`'s area)."""
+    p = np.asarray(corners, dtype=float)
+    total = area_centroid(p)[0]
+    lo, hi = float(p[:, 1].min()), float(p[:, 1].max())  # the water line relative to the centroid
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if area_centroid(below(p, mid))[0] < density_ratio * total else (lo, mid)
+    return -0.5 * (lo + hi)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..geometry import disc_local, outline, polygon_disc_local, rectangle
+from ..geometry import disc_local, floating_height, outline, polygon_disc_local, rectangle
 from ..io.hdf5 import OutputError, SnapshotTimeError, last_snapshot
 from .errors import error
 from .keys import DT_SAFETY
@@ -90,7 +90,8 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
 
     Random numbers are drawn on the host from ``numpy.random.default_rng(seed)``: first the
     tilts, then (only when ``thickness_std > 0``) the thicknesses, then (only when
-    ``width_std > 0``) the widths, so a spread never changes what was drawn before it. With
+    ``width_std > 0``) the widths, then (only when ``cut_tilt_std > 0``) the cuts' tilts
+    (:func:`_cut_shelf`), so a spread never changes what was drawn before it. With
     spread widths each iceberg keeps ``gap`` to its neighbours (none within an intact
     shelf), as equal ones do.
     """
@@ -127,7 +128,59 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
         x = start + 0.5 * shelf.width + np.arange(n) * (shelf.width + shelf.gap)
     z = equilibrium_z(thickness, physics.density_ratio, physics.water_level)
     zeros = np.zeros(n)
-    return Icebergs(x=x, z=z, theta=theta, vx=zeros, vz=zeros.copy(), omega=zeros.copy(), width=width, thickness=thickness)
+    cols = dict(x=x, z=z, theta=theta, vx=zeros, vz=zeros.copy(), omega=zeros.copy(), width=width, thickness=thickness)
+    if shelf.cut_tilt_std > 0:
+        return _cut_shelf(shelf, physics, rng, cols)
+    return Icebergs(**cols)
+
+
+def _cut_shelf(shelf, physics, rng, cols: dict) -> Icebergs:
+    """The row with tilted cut faces (``shelf.cut_tilt_std``, drawn after everything else):
+    the cut between neighbours k and k + 1 passes through the middle of their gap at the water
+    line, tilted by ``alpha_k ~ N(0, cut_tilt_std)`` from the vertical; each iceberg is the
+    quadrilateral between its two cuts (the shelf's ends vertical), each face ``gap / 2`` from
+    its cut horizontally, over its own thickness, floated upright at the draft that submerges
+    ``density_ratio`` of it."""
+    n = len(cols["x"])
+    alpha = rng.normal(0.0, shelf.cut_tilt_std, max(n - 1, 0))
+    if np.any(np.abs(alpha) >= 0.5 * math.pi):
+        raise error("shelf.cut_tilt_std", shelf.cut_tilt_std, "draws cuts tilted 90 degrees or more; use a smaller spread")
+    x, z, w, h = cols["x"], cols["z"], cols["width"], cols["thickness"]
+    wl = physics.water_level
+    mid = x[:-1] + 0.5 * w[:-1] + 0.5 * shelf.gap  # each cut's point at the water line
+    tan = np.tan(alpha)
+    outline_, count = np.zeros((n, 4, 2)), np.full(n, 4, dtype=np.int64)
+    xs, zs = np.empty(n), np.empty(n)
+
+    def face(k, level, cut, side):
+        """Iceberg k's face on ``cut`` (its right one: side 1) at height ``level``."""
+        if cut < 0 or cut >= n - 1:  # the shelf's end: vertical
+            return x[k] + side * 0.5 * w[k]
+        return mid[cut] + tan[cut] * (level - wl) - side * 0.5 * shelf.gap
+
+    for k in range(n):
+        top, bottom = z[k] + 0.5 * h[k], z[k] - 0.5 * h[k]
+        quad = np.array(
+            [
+                [face(k, bottom, k, 1), bottom],
+                [face(k, top, k, 1), top],
+                [face(k, top, k - 1, -1), top],
+                [face(k, bottom, k - 1, -1), bottom],
+            ]
+        )
+        if min(quad[0, 0] - quad[3, 0], quad[1, 0] - quad[2, 0]) <= 0.05 * w[k]:  # nearly a triangle: too sharp a corner
+            raise error(
+                "shelf.cut_tilt_std",
+                shelf.cut_tilt_std,
+                f"draws two cuts that meet within iceberg {k} (its top or bottom narrower than 5% of its width); "
+                "use a smaller spread",
+            )
+        o = outline(quad, physics.density_ratio)
+        outline_[k] = o["corners"]
+        xs[k] = o["centroid"][0]
+        zs[k] = wl + floating_height(o["corners"], physics.density_ratio)
+        w[k], h[k] = o["width"], o["thickness"]
+    return Icebergs(**{**cols, "x": xs, "z": zs, "width": w, "thickness": h}, outline=outline_, corners=count)
 
 
 def from_run(start) -> Icebergs:

@@ -181,6 +181,14 @@ SHELF = (
         "standard deviation of a normal spread of widths (0: all equal), drawn after the tilts and thicknesses (it "
         "changes neither); neighbours keep `gap` (none inside a bonded shelf)",
     ),
+    Key.nonnegative(
+        "cut_tilt_std",
+        0.0,
+        "rad",
+        "standard deviation of a normal spread of the cut faces' tilts from the vertical (0: vertical cuts, "
+        "rectangles), drawn after the widths; neighbours share each cut, `gap` apart horizontally, the shelf's two ends "
+        "stay vertical: each iceberg a quadrilateral (docs/model.md, Outlines)",
+    ),
     Key(
         "bonded",
         False,

@@ -419,3 +419,46 @@ def test_a_jostling_row_of_polygons_gives_the_same_bits_in_every_form(form):
     assert one.totals().impulses >= 4  # each of the four approaching pairs met
     for key, v in one.state().items():
         assert np.array_equal(v, two.state()[key]), key
+
+
+# ---------------------------------------------------------------- a shelf cut by tilted faces
+def test_a_shelf_with_tilted_cuts_packs_and_floats():
+    """``shelf.cut_tilt_std``: each cut is shared, the right face of iceberg k parallel to the
+    left face of k + 1 (its tilt drawn after everything else, so the tilts of the icebergs are
+    those of the vertical-cut shelf), the shelf's two ends vertical; at the water line the
+    faces are ``gap`` apart less what floating each iceberg moved them along their slant,
+    ``tan(alpha) (delta_k+1 - delta_k)``; each iceberg floats upright with ``density_ratio``
+    of its area submerged (numpy clipping)."""
+    from melange_ti import scene
+    from melange_ti.scene.initial import equilibrium_z
+
+    r, gap, count = 0.8946, 0.1, 30
+    plain = scene.load(None, overrides=[("shelf.count", count)]).icebergs()
+    cut = scene.load(None, overrides=[("shelf.count", count), ("shelf.cut_tilt_std", 0.1)]).icebergs()
+    assert plain.outline is None and np.array_equal(cut.theta, plain.theta)
+    world = cut.outline + np.stack([cut.x, cut.z], -1)[:, None, :]  # at theta = 0
+    built = equilibrium_z(1.4, r, 0.0) + 0.7  # every top before floating
+    delta = world[:, 1, 1] - built  # how far floating moved each iceberg up
+    assert world[0, 2, 0] == world[0, 3, 0] and world[-1, 0, 0] == world[-1, 1, 0]
+    slopes = []
+    for k in range(count - 1):
+        right = world[k, 1] - world[k, 0]
+        left = world[k + 1, 2] - world[k + 1, 3]
+        assert abs(right[0] * left[1] - right[1] * left[0]) < 1e-12 * np.hypot(*right) * np.hypot(*left)
+        tan = right[0] / right[1]
+        at = [w[0] + (0.0 - w[1]) * tan for w in (world[k, 0], world[k + 1, 3])]  # both faces at z = 0
+        assert at[1] - at[0] == pytest.approx(gap - tan * (delta[k + 1] - delta[k]), abs=1e-12)
+        slopes.append(tan)
+    assert 0.05 < np.std(np.arctan(slopes)) < 0.2  # a spread of about 0.1 rad
+    for k in range(count):
+        corners = world[k, : cut.corners[k]]
+        part = below(corners, 0.0)
+        assert area_centroid(part)[0] == pytest.approx(r * area_centroid(corners)[0], rel=1e-12)
+
+
+def test_a_shelf_cut_too_steeply_is_refused(tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text("[shelf]\ncount = 400\ncut_tilt_std = 0.6\n")
+    r = subprocess.run([sys.executable, "-m", "melange_ti", "check", str(scene)], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert "shelf.cut_tilt_std = 0.6" in r.stderr and "use a smaller spread" in r.stderr
