@@ -406,8 +406,9 @@ def from_dict(
     polygon = next((k for k, b in enumerate(table or ()) if "vertices" in b), None)
     if polygon is not None:
         _polygon_effects(scene, f"iceberg[{polygon}].vertices", table[polygon]["vertices"], "or give width and thickness")
-    if shelf is not None and shelf.cut_tilt_std > 0:
-        _polygon_effects(scene, "shelf.cut_tilt_std", shelf.cut_tilt_std, "or cut the shelf vertically")
+    if shelf is not None and (shelf.cut_tilt != 0 or shelf.cut_tilt_std > 0):
+        key = "shelf.cut_tilt_std" if shelf.cut_tilt_std > 0 else "shelf.cut_tilt"
+        _polygon_effects(scene, key, getattr(shelf, key.split(".")[1]), "or cut the shelf vertically")
     # the time step's stability first: a dt far too large is not blamed on an interval
     icebergs = check_time_step(scene) if geometry else None
     if start is not None and icebergs is not None and icebergs.outline is not None:

@@ -91,7 +91,7 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
     Random numbers are drawn on the host from ``numpy.random.default_rng(seed)``: first the
     tilts, then (only when ``thickness_std > 0``) the thicknesses, then (only when
     ``width_std > 0``) the widths, then (only when ``cut_tilt_std > 0``) the cuts' tilts
-    (:func:`_cut_shelf`), so a spread never changes what was drawn before it. With
+    about ``cut_tilt`` (:func:`_cut_shelf`, which also cuts at ``cut_tilt`` alone), so a spread never changes what was drawn before it. With
     spread widths each iceberg keeps ``gap`` to its neighbours (none within an intact
     shelf), as equal ones do.
     """
@@ -129,22 +129,29 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
     z = equilibrium_z(thickness, physics.density_ratio, physics.water_level)
     zeros = np.zeros(n)
     cols = dict(x=x, z=z, theta=theta, vx=zeros, vz=zeros.copy(), omega=zeros.copy(), width=width, thickness=thickness)
-    if shelf.cut_tilt_std > 0:
+    if shelf.cut_tilt != 0 or shelf.cut_tilt_std > 0:
         return _cut_shelf(shelf, physics, rng, cols)
     return Icebergs(**cols)
 
 
 def _cut_shelf(shelf, physics, rng, cols: dict) -> Icebergs:
-    """The row with tilted cut faces (``shelf.cut_tilt_std``, drawn after everything else):
-    the cut between neighbours k and k + 1 passes through the middle of their gap at the water
-    line, tilted by ``alpha_k ~ N(0, cut_tilt_std)`` from the vertical; each iceberg is the
+    """The row with tilted cut faces (``shelf.cut_tilt``, and ``shelf.cut_tilt_std`` drawn after
+    everything else): the cut between neighbours k and k + 1 passes through the middle of their
+    gap at the water line, tilted by ``alpha_k ~ N(cut_tilt, cut_tilt_std)`` from the vertical
+    (positive: its top leans to +x; every ``alpha_k = cut_tilt`` without a spread); each iceberg is the
     quadrilateral between its two cuts (the shelf's ends vertical), each face ``gap / 2`` from
     its cut horizontally, over its own thickness, floated upright at the draft that submerges
     ``density_ratio`` of it."""
     n = len(cols["x"])
-    alpha = rng.normal(0.0, shelf.cut_tilt_std, max(n - 1, 0))
+    key = "shelf.cut_tilt_std" if shelf.cut_tilt_std > 0 else "shelf.cut_tilt"
+    value = shelf.cut_tilt_std if shelf.cut_tilt_std > 0 else shelf.cut_tilt
+    advice = "use a smaller spread" if shelf.cut_tilt_std > 0 else "use a smaller tilt"
+    if shelf.cut_tilt_std > 0:
+        alpha = rng.normal(shelf.cut_tilt, shelf.cut_tilt_std, max(n - 1, 0))
+    else:
+        alpha = np.full(max(n - 1, 0), float(shelf.cut_tilt))
     if np.any(np.abs(alpha) >= 0.5 * math.pi):
-        raise error("shelf.cut_tilt_std", shelf.cut_tilt_std, "draws cuts tilted 90 degrees or more; use a smaller spread")
+        raise error(key, value, f"draws cuts tilted 90 degrees or more; {advice}")
     x, z, w, h = cols["x"], cols["z"], cols["width"], cols["thickness"]
     wl = physics.water_level
     mid = x[:-1] + 0.5 * w[:-1] + 0.5 * shelf.gap  # each cut's point at the water line
@@ -170,10 +177,10 @@ def _cut_shelf(shelf, physics, rng, cols: dict) -> Icebergs:
         )
         if min(quad[0, 0] - quad[3, 0], quad[1, 0] - quad[2, 0]) <= 0.05 * w[k]:  # nearly a triangle: too sharp a corner
             raise error(
-                "shelf.cut_tilt_std",
-                shelf.cut_tilt_std,
+                key,
+                value,
                 f"draws two cuts that meet within iceberg {k} (its top or bottom narrower than 5% of its width); "
-                "use a smaller spread",
+                + advice,
             )
         o = outline(quad, physics.density_ratio)
         outline_[k] = o["corners"]

@@ -181,12 +181,22 @@ SHELF = (
         "standard deviation of a normal spread of widths (0: all equal), drawn after the tilts and thicknesses (it "
         "changes neither); neighbours keep `gap` (none inside a bonded shelf)",
     ),
+    Key(
+        "cut_tilt",
+        0.0,
+        "rad",
+        "mean tilt of the cut faces from the vertical (positive: a cut's top leans seaward, +x); every cut leans "
+        "alike, so equal icebergs are parallelograms; neighbours share each cut, `gap` apart horizontally, the "
+        "shelf's two ends stay vertical (docs/model.md, Outlines)",
+        lambda v: abs(v) <= 0.5,
+        "must be in [-0.5, 0.5]",
+    ),
     Key.nonnegative(
         "cut_tilt_std",
         0.0,
         "rad",
-        "standard deviation of a normal spread of the cut faces' tilts from the vertical (0: vertical cuts, "
-        "rectangles), drawn after the widths; neighbours share each cut, `gap` apart horizontally, the shelf's two ends "
+        "standard deviation of a normal spread of the cut faces' tilts about `cut_tilt` (0 with `cut_tilt = 0`: "
+        "vertical cuts, rectangles), drawn after the widths; neighbours share each cut, `gap` apart horizontally, the shelf's two ends "
         "stay vertical: each iceberg a quadrilateral (docs/model.md, Outlines)",
     ),
     Key(

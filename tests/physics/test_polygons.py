@@ -456,9 +456,46 @@ def test_a_shelf_with_tilted_cuts_packs_and_floats():
         assert area_centroid(part)[0] == pytest.approx(r * area_centroid(corners)[0], rel=1e-12)
 
 
-def test_a_shelf_cut_too_steeply_is_refused(tmp_path):
+@pytest.mark.parametrize(
+    "text, said",
+    [
+        ("count = 400\ncut_tilt_std = 0.6\n", ("shelf.cut_tilt_std = 0.6", "use a smaller spread")),
+        ("cut_tilt = 0.7\n", ("shelf.cut_tilt = 0.7", "[-0.5, 0.5]")),
+    ],
+)
+def test_a_shelf_cut_too_steeply_is_refused(tmp_path, text, said):
     scene = tmp_path / "s.toml"
-    scene.write_text("[shelf]\ncount = 400\ncut_tilt_std = 0.6\n")
+    scene.write_text("[shelf]\n" + text)
     r = subprocess.run([sys.executable, "-m", "melange_ti", "check", str(scene)], capture_output=True, text=True)
     assert r.returncode == 2 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
-    assert "shelf.cut_tilt_std = 0.6" in r.stderr and "use a smaller spread" in r.stderr
+    assert all(part in r.stderr for part in said)
+
+
+def test_a_shelf_cut_at_one_tilt_is_a_row_of_parallelograms():
+    """``shelf.cut_tilt`` alone: every cut leans by the same angle (its top to +x for a
+    positive tilt), so every iceberg between two cuts is a parallelogram of the shelf's width
+    and thickness (area w h, horizontal offset h tan(alpha) between its top and bottom), the
+    two ends trapezoids with one vertical face; no random number is drawn for the cuts, so
+    the tilts are the vertical shelf's, and a spread about the mean moves the mean."""
+    from melange_ti import scene
+
+    alpha, count = math.radians(20.0), 12
+    plain = scene.load(None, overrides=[("shelf.count", count)]).icebergs()
+    cut = scene.load(None, overrides=[("shelf.count", count), ("shelf.cut_tilt", alpha)]).icebergs()
+    assert np.array_equal(cut.theta, plain.theta)
+    world = cut.outline + np.stack([cut.x, cut.z], -1)[:, None, :]
+    for k in range(1, count - 1):
+        c = world[k]
+        for right, left in ((c[1] - c[0], c[2] - c[3]),):
+            assert right[0] / right[1] == pytest.approx(math.tan(alpha), rel=1e-12)  # the top leans to +x
+            assert left[0] / left[1] == pytest.approx(math.tan(alpha), rel=1e-12)
+        assert c[0, 0] - c[3, 0] == pytest.approx(1.0, abs=1e-12) and c[1, 0] - c[2, 0] == pytest.approx(1.0, abs=1e-12)
+        assert area_centroid(c)[0] == pytest.approx(1.4, rel=1e-12)  # base w times height h
+    assert world[0, 2, 0] == world[0, 3, 0] and world[-1, 0, 0] == world[-1, 1, 0]
+    spread = scene.load(
+        None, overrides=[("shelf.count", 400), ("shelf.cut_tilt", alpha), ("shelf.cut_tilt_std", 0.02)]
+    ).icebergs()
+    w = spread.outline
+    slopes = np.arctan((w[:-1, 1, 0] - w[:-1, 0, 0]) / (w[:-1, 1, 1] - w[:-1, 0, 1]))
+    assert abs(np.mean(slopes) - alpha) < 4 * 0.02 / math.sqrt(399) and 0.015 < np.std(slopes) < 0.025
+
