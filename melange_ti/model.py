@@ -269,11 +269,11 @@ class Model:
     def constants(self) -> dict[str, np.ndarray]:
         """Per-iceberg constants ``width, thickness, mass, inertia``, arrays of shape (N,); with
         polygons also their outlines (``corners``, ``corner_u``, ``corner_v`` (N, corners),
-        ``axis``: :data:`melange_ti.io.hdf5.OUTLINE`)."""
+        ``axis``: :data:`melange_ti.io.hdf5.OUTLINE_ATTRS`)."""
         rows = self._rows()
         cols = BODIES.outputs("constant")
         out = {k: rows[:, cols[k]].copy() for k in CONSTANTS}
-        if self.fx.vertices:  # polygons: the outlines (io.hdf5.OUTLINE)
+        if self.fx.vertices:  # polygons: the outlines (io.hdf5.OUTLINE_ATTRS)
             corners = rows[:, Body.U0 : Body.U0 + 2 * self.fx.vertices].reshape(self.n, -1, 2)
             out.update(
                 corners=rows[:, Body.CORNERS].astype(np.int64),

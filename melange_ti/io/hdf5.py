@@ -71,7 +71,6 @@ UNITS_COMMENT = (
 # about the centroid in the body frame over the dimension ``corner`` (zero past the iceberg's
 # count), and the principal axis its capsize angle is measured by. A run of rectangles has none
 # of them: its outlines are its widths and thicknesses.
-OUTLINE = ("corners", "corner_u", "corner_v", "axis")
 OUTLINE_ATTRS = {
     "corners": {"units": "1", "long_name": "polygons: the number of corners of the iceberg's outline"},
     "corner_u": {"units": "w", "long_name": "polygons: each corner's body-frame u about the centroid (0 past corners)"},
@@ -468,7 +467,7 @@ def last_row(path: str | Path, names: tuple[str, ...]) -> dict[str, float]:
 def last_snapshot(path: str | Path, time: float = math.inf) -> dict[str, np.ndarray | float]:
     """The last snapshot at or before ``time`` (within 1e-9 relative): ``{"time": t, "x": ...,
     ..., "omega": ..., "width": ..., "thickness": ...}``, float64 arrays of shape (N,); a run
-    of polygons adds ``outline`` (N, corners, 2) and ``corners`` (N,) (:data:`OUTLINE`).
+    of polygons adds ``outline`` (N, corners, 2) and ``corners`` (N,) (:data:`OUTLINE_ATTRS`).
     One-line :class:`OutputError` for an unreadable file or one without snapshots,
     :class:`SnapshotTimeError` if the first snapshot is later than ``time``."""
     data = read_run(path)

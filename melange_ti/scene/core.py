@@ -53,7 +53,6 @@ CLASSES: dict[str, type] = {"physics": Physics, "contacts": Contacts, "time": Ti
 ICEBERG_DEFAULTS = {k.name: k.default for k in K.ICEBERG if k.name != "vertices"}  # numbers, per iceberg
 # the effects a polygon outline (``[[iceberg]] vertices``) runs with so far; every other
 # effect takes rectangles only (issue 33)
-POLYGON_EFFECTS = ("gravity", "buoyancy", "drag", "form_drag", "added_mass", "collisions", "wall", "friction")
 INTERVALS = ("output.snapshot_interval", "output.diagnostic_interval", "output.checkpoint_interval")
 
 
@@ -431,14 +430,15 @@ def from_dict(
 
 def _polygon_effects(scene: Scene, key: str, value: Any, instead: str) -> None:
     """Refuse, naming ``key``, a scene with polygon outlines that names an effect they do not
-    run with yet (:data:`POLYGON_EFFECTS`)."""
-    beyond = [e for e in scene.effects.names() if e not in POLYGON_EFFECTS]
+    run with yet (``Effect.polygons``)."""
+    beyond = [e.name for e in scene.effects.named if not e.polygons]
     if beyond:
+        lacking = [name for name in EFFECTS if not EFFECT_DECLS[name].polygons]
         raise error(
             key,
             value,
-            f"polygon outlines run so far with {', '.join(POLYGON_EFFECTS)}; the scene names {', '.join(beyond)} "
-            f"(not built for polygons yet): leave them out of scene.effects, {instead}",
+            f"polygon outlines run so far with every effect but {', '.join(lacking)}; the scene names "
+            f"{', '.join(beyond)} (not built for polygons yet): leave them out of scene.effects, {instead}",
         )
 
 

@@ -246,7 +246,7 @@ ICEBERG = (
         "w",
         "instead of width and thickness, any convex outline: its corners [[x, z], ...] in the body frame at theta = 0, "
         "counter-clockwise, 3 to 8; the outline is moved so that its centroid (the centre of mass) sits at x, z "
-        "(docs/model.md, Outlines); so far without waves and bonds",
+        "(docs/model.md, Outlines); so far without bonds",
     ),
 )
 

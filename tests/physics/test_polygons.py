@@ -1,4 +1,4 @@
-"""Polygon icebergs (issue 33: every effect but the waves and the bonds).
+"""Polygon icebergs (issue 33: every effect but the bonds; the waves in test_polygon_waves.py).
 
 The kernels read a polygon's outline from its corners through the same clipper as a
 rectangle's (:mod:`melange_ti.physics.shape.hydrostatics`); every number here is compared
@@ -50,7 +50,7 @@ def _fan(poly: np.ndarray) -> tuple[float, np.ndarray, float]:
     cents = np.array([(a + b + c) / 3.0 for a, b, c in tris])
     area = areas.sum()
     g = (areas[:, None] * cents).sum(0) / area
-    # a triangle's polar moment about its centroid: A (|a|^2 + |b|^2 + |c|^2 - 3 |centroid|^2) / 6 ... about 0
+    # a triangle's polar moment about its own centroid: A (|a|^2 + |b|^2 + |c|^2 - 3 |centroid|^2) / 12
     polar = 0.0
     for (a, b, c), ak, ck in zip(tris, areas, cents, strict=True):
         about_own = ak * (a @ a + b @ b + c @ c - 3 * ck @ ck) / 12.0
@@ -228,11 +228,15 @@ def test_an_outline_with_width_or_an_effect_it_lacks_is_refused(tmp_path):
         make_scene(["collisions"], [{"vertices": [[0, 0], [3, 0], [3, 0.05], [0, 0.05]]}], {}, contacts={"discs": 8})
     scene = tmp_path / "s.toml"
     scene.write_text(
-        '[scene]\neffects = ["gravity", "buoyancy", "waves"]\n[[iceberg]]\nx = 3.0\nvertices = [[0, 0], [1, 0], [0.5, 0.8]]\n'
+        '[scene]\neffects = ["gravity", "buoyancy", "collisions", "bonds"]\n'
+        "[[iceberg]]\nx = 3.0\nvertices = [[0, 0], [1, 0], [0.5, 0.8]]\n"
     )
     r = subprocess.run([sys.executable, "-m", "melange_ti", "check", str(scene)], capture_output=True, text=True)
     assert r.returncode == 2 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
-    assert "iceberg[0].vertices" in r.stderr and "waves" in r.stderr
+    assert "iceberg[0].vertices" in r.stderr and "bonds" in r.stderr
+    scene.write_text(scene.read_text().replace('"collisions", "bonds"', '"waves"'))  # the waves take polygons
+    r = subprocess.run([sys.executable, "-m", "melange_ti", "check", str(scene)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
 
 
 def test_an_outline_is_placed_by_its_centroid_and_kept_in_the_run_file(tmp_path):

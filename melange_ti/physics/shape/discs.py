@@ -13,6 +13,7 @@ import taichi as ti
 
 from ..data.schema import Body
 from ..numerics import TINY
+from .hydrostatics import polygons
 
 
 @ti.func
@@ -102,3 +103,24 @@ def polygon_disc(a: ti.template(), i, e, j):
     qu, qv = b[i, Body.IU0 + 2 * e1], b[i, Body.IU0 + 2 * e1 + 1]
     t = j / b[i, Body.NDISC0 + e]
     return ti.Vector([pu + t * (qu - pu), pv + t * (qv - pv)])
+
+
+@ti.func
+def disc(a: ti.template(), i, d, k, hw, hh, r):
+    """Body i's disc ``d`` in its body frame, and whether it has one: the rectangle's layout
+    (from its half width and thickness ``hw``, ``hh``, :func:`..hydrostatics.halves`), or a
+    polygon's (edge by edge; disc d beyond its own count: none)."""
+    local = ti.Vector([0.0, 0.0])
+    has = 1
+    if ti.static(polygons(a)):
+        has = 0
+        first = 0
+        for e in range(ti.cast(a.b[i, Body.CORNERS], ti.i32)):
+            n = ti.cast(a.b[i, Body.NDISC0 + e], ti.i32)
+            if has == 0 and d < first + n:
+                local = polygon_disc(a, i, e, d - first)
+                has = 1
+            first += n
+    else:
+        local = disc_local(d, k, hw, hh, r)
+    return local, has

@@ -205,3 +205,166 @@ def wetted(a: ti.template(), i, water_level, ux, uz, six, twelve):
     if hi >= lo:
         width = hi - lo
     return ti.Vector([area, second[0] + second[1], width, r3])
+
+
+# ------------------------------------------------------------------ the waves' strips
+# The waves take an iceberg's submerged part strip by strip (physics/effects/waves/coupling.py):
+# its horizontal reach, the thickness of its part below the water line along a vertical line,
+# where it crosses the water line, and that part as a polygon. A rectangle's come from its
+# two pairs of faces (the arithmetic the wave runs were recorded with), a polygon's from its
+# corners (each edge a half-plane of the convex outline).
+
+
+@ti.func
+def _slab(lo, hi, base, offset, half, slope):
+    """Narrow [lo, hi] to where ``|offset + (t - base) slope| <= half`` (one pair of the
+    rectangle's faces, along a line with free coordinate t); empty: hi <= lo."""
+    if slope != 0:
+        t1 = base + (-half - offset) / slope
+        t2 = base + (half - offset) / slope
+        lo = ti.max(lo, ti.min(t1, t2))
+        hi = ti.min(hi, ti.max(t1, t2))
+    elif ti.abs(offset) > half:
+        hi = lo
+    return lo, hi
+
+
+@ti.func
+def _edge(a: ti.template(), i, k: ti.template(), c, s):
+    """A polygon's edge ``k``, corner k to the next counter-clockwise (relative to the centre),
+    and whether the polygon has it (the kernels visit the scene's most corners)."""
+    count = ti.cast(a.b[i, Body.CORNERS], ti.i32)
+    p = corner(a, i, k, c, s, 0.0, 0.0)
+    q = corner(a, i, ti.static((k + 1) % corners(a)), c, s, 0.0, 0.0)
+    if k + 1 == count:
+        q = corner(a, i, 0, c, s, 0.0, 0.0)  # the closing edge
+    return p, q, k < count
+
+
+@ti.func
+def _line(a: ti.template(), i, c, s, ox, oz, dx, dz):
+    """The range [lo, hi] of t where the line ``(ox, oz) + t (dx, dz)`` (relative to the
+    centre) is inside a polygon's outline: the interior is left of every counter-clockwise
+    edge, one linear condition on t per edge; hi <= lo: it misses."""
+    lo = -FAR
+    hi = FAR
+    for k in ti.static(range(corners(a))):
+        p, q, real = _edge(a, i, k, c, s)
+        if real:
+            ex, ez = q[0] - p[0], q[1] - p[1]
+            rate = ex * dz - ez * dx  # d/dt of the cross product (q - p) x (X(t) - p)
+            at0 = ex * (oz - p[1]) - ez * (ox - p[0])
+            if rate > 0:
+                lo = ti.max(lo, -at0 / rate)
+            elif rate < 0:
+                hi = ti.min(hi, -at0 / rate)
+            elif at0 < 0:
+                hi = lo
+    return lo, hi
+
+
+@ti.func
+def reach(a: ti.template(), i, c, s, hw, hh):
+    """The outline's horizontal extent about its centre, [lo, hi] (a rectangle's from its half
+    width and thickness ``hw``, ``hh``, :func:`halves`)."""
+    lo, hi = 0.0, 0.0
+    if ti.static(not polygons(a)):
+        hi = hw * ti.abs(c) + hh * ti.abs(s)
+        lo = -hi
+    else:
+        lo, hi = FAR, -FAR
+        count = ti.cast(a.b[i, Body.CORNERS], ti.i32)
+        for k in ti.static(range(corners(a))):
+            if k < count:
+                x = corner(a, i, k, c, s, 0.0, 0.0)[0]
+                lo = ti.min(lo, x)
+                hi = ti.max(hi, x)
+    return lo, hi
+
+
+@ti.func
+def column(a: ti.template(), i, x, xc, zc, c, s, hw, hh, wl):
+    """The vertical line at ``x`` through the outline at centre (xc, zc), tilt (c, s): the
+    thickness ``h`` of its part below the still water line ``wl``, and that part's first
+    moment about the centre's height, ``M1 = int (z - zc) dz``."""
+    h = 0.0
+    m1 = 0.0
+    if ti.static(not polygons(a)):
+        d = x - xc
+        # u = d c + (z - zc) s, v = -d s + (z - zc) c
+        lo, hi = _slab(-FAR, FAR, zc, d * c, hw, s)
+        lo, hi = _slab(lo, hi, zc, -d * s, hh, c)
+        if lo < hi and lo < wl:
+            top = ti.min(hi, wl)
+            h = top - lo
+            m1 = h * (0.5 * (lo + top) - zc)
+    else:
+        lo, hi = _line(a, i, c, s, x - xc, 0.0, 0.0, 1.0)  # t = z - zc
+        level = wl - zc
+        if lo < hi and lo < level:
+            top = ti.min(hi, level)
+            h = top - lo
+            m1 = h * 0.5 * (lo + top)
+    return h, m1
+
+
+@ti.func
+def waterline(a: ti.template(), i, xc, zc, c, s, hw, hh, wl):
+    """Where the outline crosses the still water line: the interval [p, q] of x (q <= p: it
+    does not)."""
+    p, q = 0.0, 0.0
+    if ti.static(not polygons(a)):
+        e = wl - zc
+        # u = (x - xc) c + e s, v = -(x - xc) s + e c
+        lo, hi = _slab(-FAR, FAR, xc, e * s, hw, c)
+        p, q = _slab(lo, hi, xc, e * c, hh, -s)
+    else:
+        lo, hi = _line(a, i, c, s, 0.0, wl - zc, 1.0, 0.0)  # t = x - xc
+        p, q = xc + lo, xc + hi
+    return p, q
+
+
+@ti.func
+def _keep(px, pz, m, ax, az, bx, bz, wl):
+    """One edge a -> b of a clipping at the water line ``wl``: corner a kept when below it, and
+    the edge's crossing of it when it crosses."""
+    if az < wl:
+        px[m] = ax
+        pz[m] = az
+        m += 1
+    if (az < wl) != (bz < wl):
+        f = (wl - az) / (bz - az)
+        px[m] = ax + f * (bx - ax)
+        pz[m] = wl
+        m += 1
+    return px, pz, m
+
+
+@ti.func
+def below(a: ti.template(), i, xc, zc, c, s, hw, hh, wl):
+    """The outline's part below the still water line, a convex polygon of at most one corner
+    more than the outline's (counter-clockwise; vectors of the scene's most corners plus two):
+    x, z and the count."""
+    n = ti.static(corners(a))
+    px = ti.Vector([0.0 for _ in ti.static(range(n + 2))])
+    pz = ti.Vector([0.0 for _ in ti.static(range(n + 2))])
+    m = 0
+    if ti.static(not polygons(a)):
+        for k in ti.static(range(4)):
+            su = ti.static((1.0, 1.0, -1.0, -1.0)[k])
+            sv = ti.static((-1.0, 1.0, 1.0, -1.0)[k])
+            su2 = ti.static((1.0, 1.0, -1.0, -1.0)[(k + 1) % 4])
+            sv2 = ti.static((-1.0, 1.0, 1.0, -1.0)[(k + 1) % 4])
+            ax = xc + su * hw * c - sv * hh * s
+            az = zc + su * hw * s + sv * hh * c
+            bx = xc + su2 * hw * c - sv2 * hh * s
+            bz = zc + su2 * hw * s + sv2 * hh * c
+            px, pz, m = _keep(px, pz, m, ax, az, bx, bz, wl)
+    else:
+        for k in ti.static(range(n)):
+            p, q, real = _edge(a, i, k, c, s)
+            if real:
+                ax, az = xc + p[0], zc + p[1]
+                bx, bz = xc + q[0], zc + q[1]
+                px, pz, m = _keep(px, pz, m, ax, az, bx, bz, wl)
+    return px, pz, m

@@ -25,7 +25,7 @@ from ..data.schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPos
 from ..effects import JOINED, JOINED_WALL
 from ..numerics import FAR, TINY
 from ..shape.discs import face_line, line_window, polygon_disc
-from ..shape.hydrostatics import polygons
+from ..shape.hydrostatics import halves, polygons
 from . import wall
 from .broad import cell_size, margin, reach
 
@@ -228,8 +228,9 @@ def narrow(a: ti.template(), i, j, rch, motion):
     runs = ti.min(MAX_RUNS, k + 8)  # list_runs(k)
     ci, si, cj, sj = b[i, Body.COS], b[i, Body.SIN], b[j, Body.COS], b[j, Body.SIN]
     xi, zi, xj, zj = b[i, Body.X], b[i, Body.Z], b[j, Body.X], b[j, Body.Z]
-    hwi, hhi, ri = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], b[i, Body.RADIUS]
-    hwj, hhj, rj = 0.5 * b[j, Body.WIDTH], 0.5 * b[j, Body.THICK], b[j, Body.RADIUS]
+    hwi, hhi = halves(a, i)
+    hwj, hhj = halves(a, j)
+    ri, rj = b[i, Body.RADIUS], b[j, Body.RADIUS]
     dx = xj - xi
     dz = zj - zi
     cu = dx * ci + dz * si  # j's centre in i's frame

@@ -6,29 +6,9 @@ import taichi as ti
 
 from ..data.schema import Body, BodyInt, Config, Param
 from ..numerics import FAR
-from ..shape.discs import disc_local, polygon_disc, to_world
-from ..shape.hydrostatics import polygons
+from ..shape.discs import disc, to_world
+from ..shape.hydrostatics import halves
 from .broad import margin, reach
-
-
-@ti.func
-def _disc(a: ti.template(), i, d, k, hw, hh, r):
-    """Body i's disc ``d`` in its body frame, and whether it has one: the rectangle's layout,
-    or a polygon's (edge by edge; disc d beyond its own count: none)."""
-    local = ti.Vector([0.0, 0.0])
-    has = 1
-    if ti.static(polygons(a)):
-        has = 0
-        first = 0
-        for e in range(ti.cast(a.b[i, Body.CORNERS], ti.i32)):
-            n = ti.cast(a.b[i, Body.NDISC0 + e], ti.i32)
-            if has == 0 and d < first + n:
-                local = polygon_disc(a, i, e, d - first)
-                has = 1
-            first += n
-    else:
-        local = disc_local(d, k, hw, hh, r)
-    return local, has
 
 
 @ti.func
@@ -37,10 +17,11 @@ def gap(a: ti.template(), i):
     b = ti.static(a.b)
     k = ti.cast(a.cfg[Config.K], ti.i32)
     c, s = b[i, Body.COS], b[i, Body.SIN]
-    hw, hh, r = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], b[i, Body.RADIUS]
+    hw, hh = halves(a, i)
+    r = b[i, Body.RADIUS]
     g = FAR
     for d in range(ti.cast(a.cfg[Config.DISCS], ti.i32)):
-        local, has = _disc(a, i, d, k, hw, hh, r)
+        local, has = disc(a, i, d, k, hw, hh, r)
         if has:
             pa = to_world(local, b[i, Body.X], b[i, Body.Z], c, s)
             g = ti.min(g, pa[0] - r - a.par[Param.WALL_X])
@@ -54,7 +35,8 @@ def detect(a: ti.template(), i):
     standby contact), as for a pair (:func:`.narrow.narrow`)."""
     b = ti.static(a.b)
     c, s = b[i, Body.COS], b[i, Body.SIN]
-    hw, hh, r = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK], b[i, Body.RADIUS]
+    hw, hh = halves(a, i)
+    r = b[i, Body.RADIUS]
     rch = reach(a, i, margin(a))
     motion = b[i, Body.MOTION]
     wall_x = a.par[Param.WALL_X]
@@ -67,7 +49,7 @@ def detect(a: ti.template(), i):
         pz2 = 0.0
         g_min = FAR
         for d in range(ti.cast(a.cfg[Config.DISCS], ti.i32)):
-            local, has = _disc(a, i, d, k, hw, hh, r)
+            local, has = disc(a, i, d, k, hw, hh, r)
             pa = to_world(local, b[i, Body.X], b[i, Body.Z], c, s)
             g = pa[0] - r - wall_x
             if has and g < rch:

@@ -2,85 +2,16 @@
 on each (the ``force`` term, as a kick of the wave step) and its submerged area taken out of
 the source column; when it closes, its submerged area put back (:func:`close_all`), so the
 water gets what each displaced over the wave step. Both from the iceberg's submerged part
-strip by strip (:mod:`melange_ti.physics.effects.waves` has the physics)."""
+strip by strip (:mod:`melange_ti.physics.effects.waves` has the physics), which the shape
+module gives for any outline (:mod:`melange_ti.physics.shape.hydrostatics`: ``reach``,
+``column``, ``waterline``, ``below``)."""
 
 import taichi as ti
 
 from ...data.schema import Body, Param
-from ...numerics import FAR
+from ...shape import hydrostatics as shape
 from . import SUB, Wave
 from .grid import cells, closes, every, opens
-
-
-@ti.func
-def _slab(lo, hi, base, offset, half, slope):
-    """Narrow [lo, hi] to where ``|offset + (t - base) slope| <= half`` (one pair of the
-    rectangle's faces, along a line with free coordinate t); empty: hi <= lo."""
-    if slope != 0:
-        t1 = base + (-half - offset) / slope
-        t2 = base + (half - offset) / slope
-        lo = ti.max(lo, ti.min(t1, t2))
-        hi = ti.min(hi, ti.max(t1, t2))
-    elif ti.abs(offset) > half:
-        hi = lo
-    return lo, hi
-
-
-@ti.func
-def column(x, xc, zc, c, s, hw, hh, wl):
-    """The vertical line at ``x`` through the rectangle of centre (xc, zc), axes
-    ``u = (c, s)``, ``v = (-s, c)`` and half sizes hw, hh: the thickness ``h`` of its part
-    below the still water line ``wl``, and that part's first moment about the centre's
-    height, ``M1 = int (z - zc) dz``."""
-    d = x - xc
-    # u = d c + (z - zc) s, v = -d s + (z - zc) c
-    lo, hi = _slab(-FAR, FAR, zc, d * c, hw, s)
-    lo, hi = _slab(lo, hi, zc, -d * s, hh, c)
-    h = 0.0
-    m1 = 0.0
-    if lo < hi and lo < wl:
-        top = ti.min(hi, wl)
-        h = top - lo
-        m1 = h * (0.5 * (lo + top) - zc)
-    return h, m1
-
-
-@ti.func
-def waterline(xc, zc, c, s, hw, hh, wl):
-    """Where the rectangle crosses the still water line: the interval [p, q] of x (q <= p:
-    it does not)."""
-    e = wl - zc
-    # u = (x - xc) c + e s, v = -(x - xc) s + e c
-    lo, hi = _slab(-FAR, FAR, xc, e * s, hw, c)
-    return _slab(lo, hi, xc, e * c, hh, -s)
-
-
-@ti.func
-def submerged(xc, zc, c, s, hw, hh, wl):
-    """The rectangle's part below the still water line, a convex polygon of at most five
-    corners (counter-clockwise): x, z and the count."""
-    px = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    pz = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    n = 0
-    for k in ti.static(range(4)):
-        su = ti.static((1.0, 1.0, -1.0, -1.0)[k])
-        sv = ti.static((-1.0, 1.0, 1.0, -1.0)[k])
-        su2 = ti.static((1.0, 1.0, -1.0, -1.0)[(k + 1) % 4])
-        sv2 = ti.static((-1.0, 1.0, 1.0, -1.0)[(k + 1) % 4])
-        ax = xc + su * hw * c - sv * hh * s
-        az = zc + su * hw * s + sv * hh * c
-        bx = xc + su2 * hw * c - sv2 * hh * s
-        bz = zc + su2 * hw * s + sv2 * hh * c
-        if az < wl:
-            px[n] = ax
-            pz[n] = az
-            n += 1
-        if (az < wl) != (bz < wl):
-            f = (wl - az) / (bz - az)
-            px[n] = ax + f * (bx - ax)
-            pz[n] = wl
-            n += 1
-    return px, pz, n
 
 
 @ti.func
@@ -89,11 +20,11 @@ def edges(px, pz, n, wl):
     :func:`area_left_of` takes them: each edge k's x range [lo, hi], its height above the
     still water line ``wl`` at lo, its slope dz/dx and its sign in the area (-1 running to
     +x, +1 back); a vertical edge, or a slot past the n-th, has an empty range."""
-    lo = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    hi = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    z0 = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    slope = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    sign = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    lo = ti.Vector([0.0 for _ in ti.static(range(px.n))])
+    hi = ti.Vector([0.0 for _ in ti.static(range(px.n))])
+    z0 = ti.Vector([0.0 for _ in ti.static(range(px.n))])
+    slope = ti.Vector([0.0 for _ in ti.static(range(px.n))])
+    sign = ti.Vector([0.0 for _ in ti.static(range(px.n))])
     if n >= 3:
         for k in ti.static(range(px.n)):
             if k < n:
@@ -123,12 +54,6 @@ def area_left_of(lo, hi, z0, slope, sign, xe):
         t = ti.min(ti.max(xe, lo[k]), hi[k]) - lo[k]
         area += sign[k] * t * (z0[k] + 0.5 * slope[k] * t)
     return area
-
-
-@ti.func
-def extent(c, s, hw, hh):
-    """Half the horizontal extent of a rectangle."""
-    return hw * ti.abs(c) + hh * ti.abs(s)
 
 
 @ti.func
@@ -195,17 +120,17 @@ def pressure(a: ti.template(), i):
     ``dA/dtheta = M1(b) - M1(a) - int_L (x - x_G) dx``."""
     b = ti.static(a.b)
     xc, zc, c, s = b[i, Body.X], b[i, Body.Z], b[i, Body.COS], b[i, Body.SIN]
-    hw, hh = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK]
+    hw, hh = shape.halves(a, i)
     wl = a.par[Param.WATER]
-    ext = extent(c, s, hw, hh)
-    lo, hi = strips(a, xc - ext, xc + ext)
-    p, q = waterline(xc, zc, c, s, hw, hh, wl)
+    left, right = shape.reach(a, i, c, s, hw, hh)
+    lo, hi = strips(a, xc + left, xc + right)
+    p, q = shape.waterline(a, i, xc, zc, c, s, hw, hh, wl)
     f = ti.Vector([0.0, 0.0, 0.0])
-    h_a, m_a = column(edge_x(a, lo), xc, zc, c, s, hw, hh, wl)
+    h_a, m_a = shape.column(a, i, edge_x(a, lo), xc, zc, c, s, hw, hh, wl)
     for k in range(lo, hi + 1):
         xa = edge_x(a, k)
         xb = edge_x(a, k + 1)
-        h_b, m_b = column(xb, xc, zc, c, s, hw, hh, wl)
+        h_b, m_b = shape.column(a, i, xb, xc, zc, c, s, hw, hh, wl)
         wa = ti.max(p, xa)
         wb = ti.min(q, xb)
         length = 0.0
@@ -229,15 +154,15 @@ def displace(a: ti.template(), i, xc, zc, sign):
     the order of the additions."""
     b = ti.static(a.b)
     wv = ti.static(a.own)
-    hw, hh = 0.5 * b[i, Body.WIDTH], 0.5 * b[i, Body.THICK]
+    hw, hh = shape.halves(a, i)
     wl = a.par[Param.WATER]
     quantum = a.par[Param.WAVE_Q]
     per_quantum = 1.0 / quantum  # exact (a power of 2): v * per_quantum is v / quantum, without a division per strip
     scale = sign / a.par[Param.WAVE_DX]
     c, s = b[i, Body.COS], b[i, Body.SIN]
-    ext = extent(c, s, hw, hh)
-    lo, hi = strips(a, xc - ext, xc + ext)
-    px, pz, n = submerged(xc, zc, c, s, hw, hh, wl)
+    left_x, right_x = shape.reach(a, i, c, s, hw, hh)
+    lo, hi = strips(a, xc + left_x, xc + right_x)
+    px, pz, n = shape.below(a, i, xc, zc, c, s, hw, hh, wl)
     e_lo, e_hi, e_h, e_sl, e_sg = edges(px, pz, n, wl)
     left = area_left_of(e_lo, e_hi, e_h, e_sl, e_sg, edge_x(a, lo))
     for k in range(lo, hi + 1):
