@@ -124,3 +124,14 @@ def disc(a: ti.template(), i, d, k, hw, hh, r):
     else:
         local = disc_local(d, k, hw, hh, r)
     return local, has
+
+
+@ti.func
+def offset_term(du_, dv_, d2, au, av, ri, rj):
+    """Gap and weighted-sum term of a disc pair whose offset from j's disc to i's disc (at
+    (au, av)) is (du_, dv_) in j's frame, ``d2 = du_^2 + dv_^2 > 0``."""
+    dist = ti.sqrt(d2)
+    g = dist - ri - rj
+    inv = 1.0 / dist
+    t = (rj + 0.5 * g) * inv
+    return g, ti.Vector([1.0, au - du_ + du_ * t, av - dv_ + dv_ * t, du_ * inv, dv_ * inv])

@@ -24,7 +24,8 @@ import taichi as ti
 from ..data.schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Param
 from ..effects import JOINED, JOINED_WALL
 from ..numerics import FAR, TINY
-from ..shape.discs import face_line, line_window, polygon_disc
+from ..shape.discs import line_window, offset_term, polygon_disc
+from ..shape.faces import boxes_apart, face_in_j, face_spacing, j_face, pair_term
 from ..shape.hydrostatics import halves, polygons
 from . import wall
 from .broad import cell_size, margin, reach
@@ -89,76 +90,6 @@ def unpack_pair(code):
         (code >> _FB_SHIFT) & ((1 << FACE_BITS) - 1),
         code & (MAX_FACE_DISCS - 1),
     )
-
-
-@ti.func
-def boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, gap):
-    """Separating-axis test of two rectangles, in i's frame: j's centre (cu, cv), j's tilt
-    relative to i (cos c, sin s). True when they are more than ``gap`` apart on some axis."""
-    ac = ti.abs(c)
-    as_ = ti.abs(s)
-    # i's axes
-    far = ti.abs(cu) > hwi + hwj * ac + hhj * as_ + gap or ti.abs(cv) > hhi + hwj * as_ + hhj * ac + gap
-    # j's axes: u_j = (c, s), v_j = (-s, c)
-    pu = cu * c + cv * s
-    pv = -cu * s + cv * c
-    far = far or ti.abs(pu) > hwj + hwi * ac + hhi * as_ + gap or ti.abs(pv) > hhj + hwi * as_ + hhi * ac + gap
-    return far
-
-
-@ti.func
-def face_in_j(fa, k, hwi, hhi, ri, cu, cv, c, s):
-    """i's face ``fa`` in j's frame: its discs are at ``(au0, av0) + ia (dau, dav)``. j's
-    centre is at (cu, cv) in i's frame, and (c, s) is j's tilt relative to i."""
-    u0, v0, du, dv, length = face_line(fa, hwi, hhi, ri)
-    step = length / k
-    eu = u0 - cu
-    ev = v0 - cv
-    return eu * c + ev * s, -eu * s + ev * c, step * (du * c + dv * s), step * (-du * s + dv * c)
-
-
-@ti.func
-def j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv):
-    """For a disc of i at (au, av) in j's frame and j's face ``fb``: its offset across the
-    face (``perp``) and along it from the face's first disc (``along``), and the face's disc
-    spacing and its inverse. Face fb's disc ``ib`` is ``along - ib * st`` away along it."""
-    perp = au - iuj
-    along = av + ivj
-    st = stv
-    inv_st = inv_stv
-    if fb == 1:
-        perp, along, st, inv_st = av - ivj, iuj - au, stu, inv_stu
-    elif fb == 2:
-        perp, along = au + iuj, ivj - av
-    elif fb == 3:
-        perp, along, st, inv_st = av + ivj, au + iuj, stu, inv_stu
-    return perp, along, st, inv_st
-
-
-@ti.func
-def pair_term(fb, perp, off, d2, au, av, ri, rj):
-    """Gap and weighted-sum term (1, contact point u, v, normal u, v; j's frame) of the disc
-    pair at offset (perp, off) from j's disc on face fb, ``d2 = perp^2 + off^2 > 0``."""
-    # offset from j's disc to i's disc, in j's frame
-    du_, dv_ = perp, off
-    if fb == 1:
-        du_, dv_ = -off, perp
-    elif fb == 2:
-        du_, dv_ = perp, -off
-    elif fb == 3:
-        du_, dv_ = off, perp
-    return offset_term(du_, dv_, d2, au, av, ri, rj)
-
-
-@ti.func
-def offset_term(du_, dv_, d2, au, av, ri, rj):
-    """Gap and weighted-sum term of a disc pair whose offset from j's disc to i's disc (at
-    (au, av)) is (du_, dv_) in j's frame, ``d2 = du_^2 + dv_^2 > 0``."""
-    dist = ti.sqrt(d2)
-    g = dist - ri - rj
-    inv = 1.0 / dist
-    t = (rj + 0.5 * g) * inv
-    return g, ti.Vector([1.0, au - du_ + du_ * t, av - dv_ + dv_ * t, du_ * inv, dv_ * inv])
 
 
 @ti.func
@@ -247,18 +178,7 @@ def narrow(a: ti.template(), i, j, rch, motion):
     standby = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
     gap = FAR
     touch2 = touch * touch
-    # j's disc-centre rectangle and its disc spacing along the u- and v-faces (a face of
-    # zero length holds k coincident discs: every index is then in range)
-    iuj = hwj - rj
-    ivj = hhj - rj
-    stu = 2.0 * iuj / k
-    stv = 2.0 * ivj / k
-    inv_stu = 0.0
-    inv_stv = 0.0
-    if stu > TINY * (hwj + hhj):
-        inv_stu = 1.0 / stu
-    if stv > TINY * (hwj + hhj):
-        inv_stv = 1.0 / stv
+    iuj, ivj, stu, stv, inv_stu, inv_stv = face_spacing(hwj, hhj, rj, k)
     # i's list entry for j, if any, and whether it still holds every pair within touch:
     # any disc of i has moved relative to j's discs by at most |dt| + |dR| bound_i since
     # the list was made (|dR| <= |dc| + |ds| for the rotation), so a pair within touch now
