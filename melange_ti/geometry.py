@@ -20,6 +20,60 @@ def mass_inertia(width, thickness, density_ratio: float):
     return mass, mass * (width**2 + thickness**2) / 12.0
 
 
+def mass_properties(bergs, density_ratio: float, outlines: list[dict] | None = None):
+    """Each iceberg's mass, moment of inertia about its centre of mass and bounding radius,
+    arrays (N,), of :class:`melange_ti.scene.initial.Icebergs` ``bergs``: rectangles' from
+    their width and thickness (:func:`mass_inertia`, the arithmetic every rectangle run was
+    made with), polygons' from their corners (:func:`outline`; ``outlines``: theirs if the
+    caller has them already)."""
+    if bergs.outline is None:
+        mass, inertia = mass_inertia(bergs.width, bergs.thickness, density_ratio)
+        return mass, inertia, 0.5 * np.hypot(bergs.width, bergs.thickness)
+    outlines = bergs.outlines(density_ratio) if outlines is None else outlines
+    return tuple(np.array([o[k] for o in outlines]) for k in ("mass", "inertia", "bound"))
+
+
+def faces(bergs, idx: np.ndarray):
+    """The faces of icebergs ``idx`` of ``bergs`` in the world at their initial pose: centres,
+    outward unit normals and unit tangents ``(P, F, 2)`` and half lengths ``(P, F)``. A
+    rectangle's four in the order +u, -u, +v, -v (all rectangles: ``F = 4``); a polygon's
+    edges, edge ``k`` from corner ``k`` to the next (counter-clockwise, so the outward normal is
+    the tangent turned clockwise), half length -1 past its count (no face)."""
+    idx = np.asarray(idx, dtype=np.int64)
+    th = np.asarray(bergs.theta, dtype=np.float64)[idx]
+    c, s = np.cos(th), np.sin(th)
+    u = np.stack([c, s], -1)
+    v = np.stack([-s, c], -1)
+    ctr = np.stack([np.asarray(bergs.x, dtype=np.float64)[idx], np.asarray(bergs.z, dtype=np.float64)[idx]], -1)
+    if bergs.outline is None:
+        hw = 0.5 * np.asarray(bergs.width, dtype=np.float64)[idx]
+        hh = 0.5 * np.asarray(bergs.thickness, dtype=np.float64)[idx]
+        centre = np.stack([ctr + hw[:, None] * u, ctr - hw[:, None] * u, ctr + hh[:, None] * v, ctr - hh[:, None] * v], 1)
+        normal = np.stack([u, -u, v, -v], 1)
+        tangent = np.stack([v, v, u, u], 1)
+        half = np.stack([hh, hh, hw, hw], 1)
+        return centre, normal, tangent, half
+    corners = np.asarray(bergs.outline, dtype=np.float64)[idx]  # (P, V, 2), body frame
+    count = np.asarray(bergs.corners, dtype=np.int64)[idx]
+    k = np.arange(corners.shape[1])[None, :]
+    there = k < count[:, None]
+    nxt = np.where(k + 1 < count[:, None], k + 1, 0)
+    a = corners
+    b = np.take_along_axis(corners, nxt[..., None], 1)
+    length = np.hypot(*(b - a).transpose(2, 0, 1))
+    t_body = (b - a) / np.where(there, length, 1.0)[..., None]
+    mid = 0.5 * (a + b)
+
+    def world(q):  # body-frame vectors (P, F, 2) turned by each iceberg's theta
+        return q[..., :1] * u[:, None, :] + q[..., 1:] * v[:, None, :]
+
+    tangent = world(t_body)
+    normal = np.stack([tangent[..., 1], -tangent[..., 0]], -1)
+    centre = ctr[:, None, :] + world(mid)
+    half = np.where(there, 0.5 * length, -1.0)
+    return centre, normal, tangent, half
+
+
 def disc_radius(width, thickness, discs: int, spacing: float = 2.0):
     """Radius of the collision discs of rectangles ``width`` x ``thickness``.
 
@@ -376,7 +430,6 @@ def polygon_disc_local(corners: np.ndarray, discs: int, spacing: float = 2.0) ->
         out += [a + (j / n[k]) * (b - a) for j in range(n[k])]
     out = np.array(out) if out else np.zeros((1, 2))
     return np.concatenate([out, np.repeat(out[-1:], max(0, discs - len(out)), 0)]), r
-
 
 
 def floating_height(corners: np.ndarray, density_ratio: float) -> float:

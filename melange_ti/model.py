@@ -26,7 +26,7 @@ import taichi as ti
 
 from . import runtime  # noqa: F401  (imported for its patch: Taichi reuses source-position text)
 from .errors import ContactOverflow
-from .geometry import disc_radius, mass_inertia, polygon_discs
+from .geometry import disc_radius, mass_properties, polygon_discs
 from .physics.data.schema import (
     ACC_LEDGERS,
     ACCUMULATORS,
@@ -186,11 +186,9 @@ class Model:
         a = self.arrays
         p = scene.physics
         rows = np.zeros((n, body_width(self.fx)), dtype=np.float64)
-        mass, inertia = mass_inertia(bergs.width, bergs.thickness, p.density_ratio)
-        bound = 0.5 * np.hypot(bergs.width, bergs.thickness)
-        if bergs.outline is not None:  # polygons: the constants from their corners (geometry.outline)
-            outlines = bergs.outlines(p.density_ratio)
-            mass, inertia, bound = (np.array([o[k] for o in outlines]) for k in ("mass", "inertia", "bound"))
+        outlines = bergs.outlines(p.density_ratio) if bergs.outline is not None else None
+        mass, inertia, bound = mass_properties(bergs, p.density_ratio, outlines)
+        if bergs.outline is not None:  # polygons: their corners, axes and discs (geometry.outline)
             rows[:, Body.CORNERS] = bergs.corners
             rows[:, Body.AXIS] = [o["axis"] for o in outlines]
             for i, o in enumerate(outlines):

@@ -402,16 +402,8 @@ def from_dict(
         start=start,
         tables=_effect_tables(doc, table is not None),
     )
-    polygon = next((k for k, b in enumerate(table or ()) if "vertices" in b), None)
-    if polygon is not None:
-        _polygon_effects(scene, f"iceberg[{polygon}].vertices", table[polygon]["vertices"], "or give width and thickness")
-    if shelf is not None and (shelf.cut_tilt != 0 or shelf.cut_tilt_std > 0):
-        key = "shelf.cut_tilt_std" if shelf.cut_tilt_std > 0 else "shelf.cut_tilt"
-        _polygon_effects(scene, key, getattr(shelf, key.split(".")[1]), "or cut the shelf vertically")
     # the time step's stability first: a dt far too large is not blamed on an interval
     icebergs = check_time_step(scene) if geometry else None
-    if start is not None and icebergs is not None and icebergs.outline is not None:
-        _polygon_effects(scene, "start.file", start.file, "or start from a run of rectangles")
     _whole_steps("time.duration", time.duration, time.dt)
     for key in INTERVALS:
         _whole_steps(key, getattr(parts["output"], key.split(".")[1]), time.dt)
@@ -426,20 +418,6 @@ def from_dict(
             if bad is not None:
                 raise error(*bad)
     return scene
-
-
-def _polygon_effects(scene: Scene, key: str, value: Any, instead: str) -> None:
-    """Refuse, naming ``key``, a scene with polygon outlines that names an effect they do not
-    run with yet (``Effect.polygons``)."""
-    beyond = [e.name for e in scene.effects.named if not e.polygons]
-    if beyond:
-        lacking = [name for name in EFFECTS if not EFFECT_DECLS[name].polygons]
-        raise error(
-            key,
-            value,
-            f"polygon outlines run so far with every effect but {', '.join(lacking)}; the scene names "
-            f"{', '.join(beyond)} (not built for polygons yet): leave them out of scene.effects, {instead}",
-        )
 
 
 def loads(text: str, overrides: list[tuple[str, Any]] | None = None, base: Path | None = None, geometry: bool = True) -> Scene:

@@ -141,7 +141,10 @@ def _cut_shelf(shelf, physics, rng, cols: dict) -> Icebergs:
     (positive: its top leans to +x; every ``alpha_k = cut_tilt`` without a spread); each iceberg is the
     quadrilateral between its two cuts (the shelf's ends vertical), each face ``gap / 2`` from
     its cut horizontally, over its own thickness, floated upright at the draft that submerges
-    ``density_ratio`` of it."""
+    ``density_ratio`` of it. In an intact shelf (``bonded``) no gap is left between bonded
+    neighbours and their pieces are not floated one by one: each keeps the height of the
+    rectangle it was cut from, so every cut stays closed (the shelf floats as one body; what a
+    piece lacks of its own balance the bonds carry)."""
     n = len(cols["x"])
     key = "shelf.cut_tilt_std" if shelf.cut_tilt_std > 0 else "shelf.cut_tilt"
     value = shelf.cut_tilt_std if shelf.cut_tilt_std > 0 else shelf.cut_tilt
@@ -154,7 +157,11 @@ def _cut_shelf(shelf, physics, rng, cols: dict) -> Icebergs:
         raise error(key, value, f"draws cuts tilted 90 degrees or more; {advice}")
     x, z, w, h = cols["x"], cols["z"], cols["width"], cols["thickness"]
     wl = physics.water_level
-    mid = x[:-1] + 0.5 * w[:-1] + 0.5 * shelf.gap  # each cut's point at the water line
+    # each cut's gap: none between two icebergs of an intact shelf (``bonded``)
+    intact = max(0, n - shelf.front) if shelf.bonded else 0
+    gap = np.full(max(n - 1, 0), float(shelf.gap))
+    gap[: max(0, intact - 1)] = 0.0
+    mid = x[:-1] + 0.5 * w[:-1] + 0.5 * gap  # each cut's point at the water line
     tan = np.tan(alpha)
     outline_, count = np.zeros((n, 4, 2)), np.full(n, 4, dtype=np.int64)
     xs, zs = np.empty(n), np.empty(n)
@@ -163,7 +170,7 @@ def _cut_shelf(shelf, physics, rng, cols: dict) -> Icebergs:
         """Iceberg k's face on ``cut`` (its right one: side 1) at height ``level``."""
         if cut < 0 or cut >= n - 1:  # the shelf's end: vertical
             return x[k] + side * 0.5 * w[k]
-        return mid[cut] + tan[cut] * (level - wl) - side * 0.5 * shelf.gap
+        return mid[cut] + tan[cut] * (level - wl) - side * 0.5 * gap[cut]
 
     for k in range(n):
         top, bottom = z[k] + 0.5 * h[k], z[k] - 0.5 * h[k]
@@ -179,13 +186,15 @@ def _cut_shelf(shelf, physics, rng, cols: dict) -> Icebergs:
             raise error(
                 key,
                 value,
-                f"draws two cuts that meet within iceberg {k} (its top or bottom narrower than 5% of its width); "
-                + advice,
+                f"draws two cuts that meet within iceberg {k} (its top or bottom narrower than 5% of its width); " + advice,
             )
         o = outline(quad, physics.density_ratio)
         outline_[k] = o["corners"]
         xs[k] = o["centroid"][0]
-        zs[k] = wl + floating_height(o["corners"], physics.density_ratio)
+        if k < intact:  # a piece of the intact shelf: where it was cut
+            zs[k] = o["centroid"][1]
+        else:
+            zs[k] = wl + floating_height(o["corners"], physics.density_ratio)
         w[k], h[k] = o["width"], o["thickness"]
     return Icebergs(**{**cols, "x": xs, "z": zs, "width": w, "thickness": h}, outline=outline_, corners=count)
 

@@ -1,4 +1,4 @@
-"""Polygon icebergs (issue 33: every effect but the bonds; the waves in test_polygon_waves.py).
+"""Polygon icebergs (issue 33; the waves in test_polygon_waves.py, the bonds in test_polygon_bonds.py).
 
 The kernels read a polygon's outline from its corners through the same clipper as a
 rectangle's (:mod:`melange_ti.physics.shape.hydrostatics`); every number here is compared
@@ -219,22 +219,23 @@ def test_a_bad_outline_is_refused_naming_it(name):
         make_scene(["gravity", "buoyancy"], [{"x": -5.0}, {"vertices": vertices}], {})
 
 
-def test_an_outline_with_width_or_an_effect_it_lacks_is_refused(tmp_path):
+def test_an_outline_with_width_is_refused_and_every_effect_takes_polygons(tmp_path):
     with pytest.raises(SceneError, match=r"iceberg\[0\]\.vertices = .*leave out width and thickness"):
         make_scene(["gravity", "buoyancy"], [{"vertices": TRIANGLE.tolist(), "width": 1.0}], {})
-    with pytest.raises(SceneError, match=r"iceberg\[0\]\.vertices = .*names bonds"):
-        make_scene(["gravity", "buoyancy", "collisions", "bonds"], [{"vertices": TRIANGLE.tolist()}], {})
     with pytest.raises(SceneError, match=r"contacts\.discs = 8: too few for iceberg 0's outline"):
         make_scene(["collisions"], [{"vertices": [[0, 0], [3, 0], [3, 0.05], [0, 0.05]]}], {}, contacts={"discs": 8})
     scene = tmp_path / "s.toml"
     scene.write_text(
         '[scene]\neffects = ["gravity", "buoyancy", "collisions", "bonds"]\n'
-        "[[iceberg]]\nx = 3.0\nvertices = [[0, 0], [1, 0], [0.5, 0.8]]\n"
+        "[[iceberg]]\nx = 3.0\nwidth = 1.0\nvertices = [[0, 0], [1, 0], [0.5, 0.8]]\n"
     )
     r = subprocess.run([sys.executable, "-m", "melange_ti", "check", str(scene)], capture_output=True, text=True)
     assert r.returncode == 2 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
-    assert "iceberg[0].vertices" in r.stderr and "bonds" in r.stderr
-    scene.write_text(scene.read_text().replace('"collisions", "bonds"', '"waves"'))  # the waves take polygons
+    assert "iceberg[0].vertices" in r.stderr and "width" in r.stderr
+    scene.write_text(scene.read_text().replace("width = 1.0\n", ""))  # the bonds take polygons
+    r = subprocess.run([sys.executable, "-m", "melange_ti", "check", str(scene)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    scene.write_text(scene.read_text().replace('"collisions", "bonds"', '"waves"'))  # as do the waves
     r = subprocess.run([sys.executable, "-m", "melange_ti", "check", str(scene)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
 
@@ -502,4 +503,3 @@ def test_a_shelf_cut_at_one_tilt_is_a_row_of_parallelograms():
     w = spread.outline
     slopes = np.arctan((w[:-1, 1, 0] - w[:-1, 0, 0]) / (w[:-1, 1, 1] - w[:-1, 0, 1]))
     assert abs(np.mean(slopes) - alpha) < 4 * 0.02 / math.sqrt(399) and 0.015 < np.std(slopes) < 0.025
-

@@ -163,8 +163,6 @@ class Effect:
                      gives each, 0 in a run without it)
     ``requires``     effects of which the scene must name at least one with it, and
     ``requires_doc`` why (the refusal's words)
-    ``polygons``     whether it runs with polygon outlines (False: a scene with one that names
-                     it is refused, naming the outline's key)
     ``state``        ``state(scene, np_real) -> State``: its host side (:class:`State`),
                      made by the model only when the scene names the effect
     ``kernels``      ``kernels() -> module``: imports its Taichi side, the module holding its
@@ -200,7 +198,6 @@ class Effect:
     reports: tuple[Quantity, ...] = ()
     requires: tuple[str, ...] = ()
     requires_doc: str = ""
-    polygons: bool = True
     state: Callable | None = None
     kernels: Callable[[], ModuleType] | None = None
 

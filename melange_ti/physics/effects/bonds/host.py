@@ -9,28 +9,11 @@ import math
 
 import numpy as np
 
-from ....geometry import mass_inertia
+from ....geometry import faces, mass_properties
 from ..base import State
 from . import GEOMETRY, MAX_BONDS, MIN_OVERLAP, POISSON, REST, TABLE, TOUCH, Bond, weibull_scale
 
 # ---------------------------------------------------------------- geometry at t = 0
-
-
-def _faces(bergs, idx: np.ndarray):
-    """The four faces of icebergs ``idx``: centres, outward normals, tangents ``(P, 4, 2)`` and
-    half lengths ``(P, 4)``, in the order +u, -u, +v, -v."""
-    th = np.asarray(bergs.theta, dtype=np.float64)[idx]
-    c, s = np.cos(th), np.sin(th)
-    u = np.stack([c, s], -1)
-    v = np.stack([-s, c], -1)
-    ctr = np.stack([np.asarray(bergs.x, dtype=np.float64)[idx], np.asarray(bergs.z, dtype=np.float64)[idx]], -1)
-    hw = 0.5 * np.asarray(bergs.width, dtype=np.float64)[idx]
-    hh = 0.5 * np.asarray(bergs.thickness, dtype=np.float64)[idx]
-    centre = np.stack([ctr + hw[:, None] * u, ctr - hw[:, None] * u, ctr + hh[:, None] * v, ctr - hh[:, None] * v], 1)
-    normal = np.stack([u, -u, v, -v], 1)
-    tangent = np.stack([v, v, u, u], 1)
-    half = np.stack([hh, hh, hw, hw], 1)
-    return centre, normal, tangent, half
 
 
 def shared_faces(bergs, i: np.ndarray, j: np.ndarray):
@@ -39,8 +22,9 @@ def shared_faces(bergs, i: np.ndarray, j: np.ndarray):
     apart that overlap by more than :data:`MIN_OVERLAP` (the longest overlap if several); the
     point is the overlap's middle, halfway between the two faces."""
     i, j = np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64)
-    ci, ni, ti, hi = (q[:, :, None] for q in _faces(bergs, i))
-    cj, nj, _tj, hj = (q[:, None, :] for q in _faces(bergs, j))
+    ci, ni, ti, hi = (q[:, :, None] for q in faces(bergs, i))
+    cj, nj, _tj, hj = (q[:, None, :] for q in faces(bergs, j))
+    f = ci.shape[1]  # faces per iceberg: a rectangle's 4, the scene's most corners
     gap = cj - ci
     anti = np.sum(ni * nj, -1) < -1.0 + 1e-6
     sep = np.sum(gap * ni, -1)
@@ -48,10 +32,10 @@ def shared_faces(bergs, i: np.ndarray, j: np.ndarray):
     lo = np.maximum(-hi, off - hj)
     up = np.minimum(hi, off + hj)
     ok = anti & (np.abs(sep) <= TOUCH) & (up - lo > MIN_OVERLAP)
-    score = np.where(ok, up - lo, -np.inf).reshape(len(i), 16)
+    score = np.where(ok, up - lo, -np.inf).reshape(len(i), f * f)
     best = np.argmax(score, 1)  # the first of the longest, faces of i outer
     k = np.arange(len(i))
-    fi, fj = best // 4, best % 4
+    fi, fj = best // f, best % f
     mid = 0.5 * (lo[k, fi, fj] + up[k, fi, fj])
     sep_k = sep[k, fi, fj]
     n = ni[k, fi, 0]
@@ -69,8 +53,8 @@ def shared_face(bergs, i: int, j: int):
 def wall_faces(bergs, i: np.ndarray, wall_x: float):
     """``(point on the wall, normal from the iceberg to the wall, length, found)`` of the face of
     each iceberg ``i`` that lies on the wall at t = 0."""
-    centre, normal, _t, half = _faces(bergs, np.asarray(i, dtype=np.int64))
-    ok = (normal[..., 0] < -1.0 + 1e-6) & (np.abs(centre[..., 0] - wall_x) <= TOUCH)
+    centre, normal, _t, half = faces(bergs, np.asarray(i, dtype=np.int64))
+    ok = (normal[..., 0] < -1.0 + 1e-6) & (np.abs(centre[..., 0] - wall_x) <= TOUCH) & (half > 0)
     f = np.argmax(ok, 1)
     k = np.arange(len(f))
     point = np.stack([np.full(len(f), wall_x), centre[k, f, 1]], -1)
@@ -167,7 +151,7 @@ def material(scene, bergs, rows: np.ndarray) -> np.ndarray:
     j = rows[on, Bond.B].astype(np.int64)
     wall = j < 0
     jj = np.where(wall, 0, j)
-    mass, inertia = mass_inertia(bergs.width, bergs.thickness, p.density_ratio)
+    mass, inertia, _ = mass_properties(bergs, p.density_ratio)
     m_eff = np.where(wall, mass[i], mass[i] * mass[jj] / (mass[i] + mass[jj]))
     i_eff = np.where(wall, inertia[i], inertia[i] * inertia[jj] / (inertia[i] + inertia[jj]))
     e = p.bond_modulus
@@ -247,7 +231,7 @@ def gershgorin(table: np.ndarray, bergs, density_ratio: float, cols: tuple[int, 
     if not on.any():
         return 0.0
     t = table[on]
-    mass, inertia = mass_inertia(np.asarray(bergs.width), np.asarray(bergs.thickness), density_ratio)
+    mass, inertia, _ = mass_properties(bergs, density_ratio)
     diag = np.stack([mass, mass, inertia], 1).reshape(-1)
     at = np.zeros(len(mass))  # the arms and the normal do not depend on where the bodies are
     i, jj, wall, ra, n, rb, _ = world(t, at, at, np.asarray(bergs.theta, dtype=np.float64))
