@@ -1,26 +1,37 @@
 """Shelf to melange (issue #31): the tensile strength below which a capsize breaks up an intact shelf.
 
-    python validation/shelf_breakup.py scan  [--count 50] [--duration 1000]   # log sweep, cheap
+    python validation/shelf_breakup.py scan  [--count 50] [--duration 1000] [--cut-tilt DEG]   # log sweep, cheap
     python validation/shelf_breakup.py sweep [--count 400] [--duration 2000] [--strengths ...] [--seeds 1,2]
     python validation/shelf_breakup.py seeds [--count 400] [--duration 2000] --strength S [--seeds 1,...,8]
     python validation/shelf_breakup.py table                                   # the CSVs again from the run files
     python validation/shelf_breakup.py plot                                    # phase.png from the CSVs
+    python validation/shelf_breakup.py cuts                                    # cuts.png from the scans' CSVs
 
 ``runs/shelf_breakup.toml`` (the paper's icebergs as one bonded shelf, the first bonded to the
 wall, only the seaward one free and tilted) at ``physics.tensile_strength = shear_strength = S``
 (Weibull modulus 5 about it, drawn from ``time.seed``), one run at a time on one thread, against
 the paper's pre-cut scene (``runs/paper.toml``, same count and duration). Each run's end state
-is a row: capsized fraction, leading edge, pieces (``fragments``), the fraction of bonds intact,
-the released energy and the budget's residual relative to it, ``depth`` (how far into the shelf,
-in icebergs from its seaward end, the deepest capsized iceberg started), and three times: the last bond's
-break, and when the capsize front reached the middle of the shelf and its inner tenth (the first
-snapshot where an iceberg that started there or deeper has capsized; empty: never). ``scan`` writes ``scan.csv``,
+is a row: capsized fraction (the model's: a polygon's principal axis), leading edge, pieces
+(``fragments``), the fraction of bonds intact, the released energy and the budget's residual
+relative to it, ``depth`` (how far into the shelf, in icebergs from its seaward end, the deepest
+capsized iceberg started), and three times: the last bond's break, and when the capsize front
+reached the middle of the shelf and its inner tenth (the first snapshot where an iceberg that
+started there or deeper has capsized; empty: never), and ``capsized_v``, the fraction whose body
+v axis (vertical in the shelf) is past 45 degrees at the end (the measure of ``depth`` and the
+times; the model's own for rectangles). ``scan`` writes ``scan.csv``,
 ``sweep`` ``sweep.csv`` (plus ``phase.png``), ``seeds`` ``seeds.csv``, all in
 ``validation/results/shelf_breakup/``; the run files go to ``runs/shelf_breakup/`` (not kept).
+
+``--cut-tilt DEG`` (any mode but ``table``, ``plot``, ``cuts``; default 0: vertical cuts) cuts the shelf
+by faces leaning ``DEG`` degrees, top seaward for ``DEG > 0``, with a normal spread of 2.5 degrees
+(``shelf.cut_tilt``, ``shelf.cut_tilt_std``; the pieces are parallelograms bonded across the cuts, as
+in ``validation/shelf_cuts.py``). The tilt is the rows' last column, ``cut_tilt_deg``, and a suffix
+of the run files and CSVs (``scan_cut20.csv``); ``cuts`` plots the scans of every tilt (``cuts.png``).
 """
 
 import argparse
 import csv
+import math
 import sys
 import time
 from pathlib import Path
@@ -40,9 +51,11 @@ OUT = ROOT / "validation" / "results" / "shelf_breakup"
 RUNS = ROOT / "runs" / "shelf_breakup"
 PA = pascals(70.0)  # the stress unit at w = 70 m
 INNER = 0.1  # the front has crossed when an iceberg of the inner tenth (by start position) capsizes
+CUT_STD = 2.5  # degrees: the spread of the cuts' tilts about --cut-tilt
 COLUMNS = (
     "scene", "count", "duration", "strength", "strength_MPa", "seed", "capsized", "leading_edge", "fragments",
     "bonds_intact", "released", "residual", "residual_rel", "depth", "t_last_break", "t_half", "t_cross", "wall_s", "steps_per_s",
+    "capsized_v", "cut_tilt_deg",
 )  # fmt: skip
 
 
@@ -76,19 +89,34 @@ def end_state(path: Path) -> dict:
         "depth": float(np.max(rank[caps[-1]]) * n + 1) if caps[-1].any() else 0.0,
         "t_half": reached(0.5),
         "t_cross": reached(1 - INNER),
+        "capsized_v": float(caps[-1].mean()),
     }
 
 
-def run_path(tag: str, count, strength, seed) -> Path:
-    return RUNS / f"{tag}_n{count}_s{strength if strength not in (None, '') else 'cut'}_seed{seed}.h5"
+def suffix(cut_tilt) -> str:
+    """``_cut20`` for cuts leaning 20 degrees; empty for vertical cuts (the file names of before)."""
+    deg = float(cut_tilt or 0)
+    return f"_cut{deg:g}" if deg else ""
 
 
-def one(scene_path: Path, tag: str, count: int, duration: float, seed: int, strength: float | None) -> dict:
+def run_path(tag: str, count, strength, seed, cut_tilt=0.0) -> Path:
+    return RUNS / f"{tag}_n{count}_s{strength if strength not in (None, '') else 'cut'}_seed{seed}{suffix(cut_tilt)}.h5"
+
+
+def csv_name(base: str, cut_tilt=0.0) -> str:
+    return f"{base}{suffix(cut_tilt)}.csv"
+
+
+def one(
+    scene_path: Path, tag: str, count: int, duration: float, seed: int, strength: float | None, cut_tilt: float = 0.0
+) -> dict:
     over = {"shelf.count": count, "time.duration": duration, "time.seed": seed}
     if strength is not None:
         over |= {"physics.tensile_strength": strength, "physics.shear_strength": strength}
+    if cut_tilt:
+        over |= {"shelf.cut_tilt": math.radians(cut_tilt), "shelf.cut_tilt_std": math.radians(CUT_STD)}
     RUNS.mkdir(parents=True, exist_ok=True)
-    out = run_path(tag, count, strength, seed)
+    out = run_path(tag, count, strength, seed, cut_tilt)
     t0 = time.time()
     r = mt.run(mt.load_scene(scene_path, overrides=over), out=out, overwrite=True, threads=1)
     row = {
@@ -101,6 +129,7 @@ def one(scene_path: Path, tag: str, count: int, duration: float, seed: int, stre
         **end_state(out),
         "wall_s": round(time.time() - t0, 1),
         "steps_per_s": round(r.steps_per_second),
+        "cut_tilt_deg": cut_tilt,
     }
     print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()), flush=True)
     return row
@@ -165,12 +194,60 @@ def plot() -> None:
     print(f"wrote {OUT / 'phase.png'}")
 
 
+def cuts() -> None:
+    """cuts.png: the scans of every cut tilt (``scan.csv``, ``scan_cut*.csv``), capsized fraction and
+    bonds intact at the end against the strength, each seed a marker, the seeds' mean a line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tilted = sorted((p.name for p in OUT.glob("scan_cut*.csv")), key=lambda n: float(n[len("scan_cut") : -len(".csv")]))
+    names = ["scan.csv", *tilted]
+    fig, axes = plt.subplots(2, 1, figsize=(7.5, 7.5), sharex=True, layout="constrained")
+    styles = zip(("k", "tab:blue", "tab:red", "tab:green", "tab:purple"), (8, 6, 4, 3, 2), strict=True)
+    for name, (colour, size) in zip(names, styles, strict=False):  # smaller markers in front: overlaps stay visible
+        rows = read(name)
+        if not rows:
+            continue
+        deg = float(rows[0].get("cut_tilt_deg") or 0)
+        label = f"cuts {deg:g}° ± {CUT_STD:g}°" if deg else "vertical cuts"
+        strengths = sorted({float(r["strength"]) for r in rows})
+        for ax, key in zip(axes, ("capsized", "bonds_intact"), strict=True):
+            for seed, marker in zip(sorted({r["seed"] for r in rows}), "os^Dv", strict=False):
+                pts = [(float(r["strength"]), float(r[key])) for r in rows if r["seed"] == seed]
+                ax.plot(*zip(*pts, strict=True), marker, color=colour, ms=size, mfc="none", label=f"{label}, seed {seed}")
+            mean = [np.mean([float(r[key]) for r in rows if float(r["strength"]) == s]) for s in strengths]
+            ax.plot(strengths, mean, "-", color=colour, lw=1, alpha=0.7)
+        if deg:  # the body v axis past 45 degrees (the model's measure reads a leaning parallelogram as capsized)
+            v = [np.mean([float(r["capsized_v"]) for r in rows if float(r["strength"]) == s]) for s in strengths]
+            axes[0].plot(strengths, v, "--", color=colour, lw=1, label=f"{label}: v axis past 45° (seeds' mean)")
+    n = int(read(names[0])[0]["count"]) if read(names[0]) else 50
+    axes[0].axhline(1 / n, color="0.5", lw=0.8, ls=":", label=f"the front alone (1/{n})")
+    labels = ("capsized fraction at the end (the model's)", "fraction of bonds intact at the end")
+    for ax, label in zip(axes, labels, strict=True):
+        ax.set_xscale("log")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3, which="both")
+    axes[-1].set_xlabel("tensile strength = shear strength S (rho_w g w); Weibull modulus 5 about it")
+    top = axes[0].secondary_xaxis("top", functions=(lambda s: s * PA / 1e3, lambda k: k * 1e3 / PA))
+    top.set_xlabel("kPa at w = 70 m")
+    axes[1].legend(*axes[0].get_legend_handles_labels(), fontsize=6, ncol=2, loc="center left")
+    rows = read(names[0])
+    dur = float(rows[0]["duration"]) if rows else float("nan")
+    fig.suptitle(f"Shelf to mélange cut by leaning fractures: N = {n}, t = {dur:g}", fontsize=10)
+    fig.savefig(OUT / "cuts.png", dpi=120)
+    print(f"wrote {OUT / 'cuts.png'}")
+
+
 def table() -> None:
     """The CSVs' end-state columns again from their run files (where still there)."""
-    for name in ("scan.csv", "sweep.csv", "seeds.csv"):
+    bases = ("scan", "sweep", "seeds")
+    names = [n for base in bases for n in [f"{base}.csv", *sorted(p.name for p in OUT.glob(f"{base}_cut*.csv"))]]
+    for name in names:
         rows = read(name)
         for r in rows:
-            p = run_path(r["scene"], r["count"], r["strength"], r["seed"])
+            p = run_path(r["scene"], r["count"], r["strength"], r["seed"], r.get("cut_tilt_deg"))
             if p.exists():
                 r |= end_state(p)
         if rows:
@@ -184,41 +261,49 @@ def floats(text: str) -> list[float]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("what", choices=("scan", "sweep", "seeds", "table", "plot"))
+    p.add_argument("what", choices=("scan", "sweep", "seeds", "table", "plot", "cuts"))
     p.add_argument("--count", type=int)
     p.add_argument("--duration", type=float)
     p.add_argument("--strengths", type=floats)
     p.add_argument("--strength", type=float)
     p.add_argument("--seeds", type=lambda t: [int(v) for v in t.split(",")])
     p.add_argument("--no-paper", action="store_true", help="sweep: skip the pre-cut reference runs")
+    p.add_argument("--cut-tilt", type=float, default=0.0, help="the cuts' lean in degrees, top seaward > 0 (2.5-degree spread)")
     a = p.parse_args()
+    cut = a.cut_tilt
     if a.what == "plot":
         return plot()
+    if a.what == "cuts":
+        return cuts()
     if a.what == "table":
         return table()
     if a.what == "scan":
         n, dur = a.count or 50, a.duration or 1000.0
         strengths = a.strengths or [0.3552, 0.3, 0.25, 0.2, 0.17, 0.15, 0.13, 0.115, 0.1, 0.03, 0.01, 0.003, 0.001, 1e-4]
-        write([one(SCENE, "shelf_breakup", n, dur, seed, s) for seed in (a.seeds or [1]) for s in strengths], "scan.csv")
+        rows = [one(SCENE, "shelf_breakup", n, dur, seed, s, cut) for seed in (a.seeds or [1]) for s in strengths]
+        write(rows, csv_name("scan", cut))
         return None
     n, dur = a.count or 400, a.duration or 2000.0
     if a.what == "seeds":
         if a.strength is None:
             sys.exit("seeds: --strength is required (a value below the critical strength)")
-        write([one(SCENE, "shelf_breakup", n, dur, seed, a.strength) for seed in (a.seeds or range(1, 9))], "seeds.csv")
+        rows = [one(SCENE, "shelf_breakup", n, dur, seed, a.strength, cut) for seed in (a.seeds or range(1, 9))]
+        write(rows, csv_name("seeds", cut))
         return None
     # rows of the same count and duration already in sweep.csv are kept (a sweep extended in
     # several calls), a run done again replaces its row; the CSV is written after every run
-    rows = [r for r in read("sweep.csv") if int(r["count"]) == n and float(r["duration"]) == dur]
+    name = csv_name("sweep", cut)
+    rows = [r for r in read(name) if int(r["count"]) == n and float(r["duration"]) == dur]
     seeds = a.seeds or [1, 2]
     todo = [] if a.no_paper else [(PAPER, "paper", seed, None) for seed in seeds]
     todo += [(SCENE, "shelf_breakup", seed, s) for s in a.strengths or [0.3552, 0.2, 0.15, 0.13, 0.1, 0.01] for seed in seeds]
     for path, tag, seed, s in todo:
-        row = one(path, tag, n, dur, seed, s)
+        row = one(path, tag, n, dur, seed, s, cut)
         key = (tag, str(s if s is not None else ""), str(seed))
         rows = [r for r in rows if (r["scene"], str(r["strength"]), str(r["seed"])) != key] + [row]
-        write(sorted(rows, key=lambda r: (r["scene"], float(r["strength"] or 0), int(r["seed"]))), "sweep.csv")
-    plot()
+        write(sorted(rows, key=lambda r: (r["scene"], float(r["strength"] or 0), int(r["seed"]))), name)
+    if not cut:  # phase.png is the vertical cuts' figure
+        plot()
 
 
 if __name__ == "__main__":
