@@ -12,12 +12,15 @@ model's impulses are compared with it at the contact point and normal the model'
 met (read from its contact columns after the step).
 
 Cases (restitution 0.5, mu = 0.3, 16 discs, dt = 0.01, no gravity): a block (1 x 1.4) tilted
-by 0, 0.2, 0.4 and 0.6 rad driven into the wall at v_x = -1, its corner first; and a tilted
+by 0, 0.2, 0.4 and 0.6 rad driven into the wall at v_x = -1, its corner first; a tilted
 block's corner into an upright block's face, mass ratios 1 and 10 (the 1 x 1.4 block against a
-1 x 1.4 or a 0.2 x 0.7 one), closing at 2 in the centre-of-mass frame. Each at 25 sliding
-speeds from -3 to 3. Reported per case: the regimes, the largest error of the impulse (against
-|J|), of v_n' against -e v_n, of each ledger against its impulse's work and of the kinetic
-energy lost against the ledgers; how often the friction's ledger is negative (the coupling
+1 x 1.4 or a 0.2 x 0.7 one), closing at 2 in the centre-of-mass frame; and two polygons
+(case ``polygons``, issue 33, 32 discs): a triangle tilted 0.5 rad (the ``tilt`` column) strikes
+a trapezoid's slanted face (its normal 20.6 degrees from horizontal) with a corner, closing at
+2 in the centre-of-mass frame from 0.02 apart (the discs' gap, by bisection). Each at 25
+sliding speeds from -3 to 3. Reported per case: the regimes, the largest error of the impulse
+(against |J|), of v_n' against -e v_n, of each ledger against its impulse's work and of the
+kinetic energy lost against the ledgers; how often the friction's ledger is negative (the coupling
 passes energy from the normal direction) and whether any impact gains energy. For comparison,
 the effective restitution ``-v_n' / v_n`` the law of version 0.2 gave at the same contacts (a
 normal impulse, then a clamped tangential one, each with its own K).
@@ -32,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from melange_ti.geometry import polygon_disc_local
 from melange_ti.scene import DENSITY_RATIO
 from melange_ti.testing import (
     contact_matrix,
@@ -53,6 +57,9 @@ DISCS = 16
 W, H = 1.0, 1.4
 TILTS = (0.0, 0.2, 0.4, 0.6)
 SLIDES = np.linspace(-3.0, 3.0, 25)
+TRIANGLE = [[0.0, 0.0], [1.0, 0.0], [0.5, 0.8]]
+TRAPEZOID = [[-0.6, -0.4], [0.6, -0.4], [0.3, 0.4], [-0.3, 0.4]]
+POLY_TILT, POLY_DISCS = 0.5, 32
 
 
 def models():
@@ -71,7 +78,37 @@ def models():
     pair = make_scene(
         ["collisions", "friction"], bergs, {"restitution": E, "density_ratio": R, "friction": MU}, contacts={"discs": DISCS}
     )
-    return (Model(wall), wall), (Model(pair), pair)
+    polys = make_scene(
+        ["collisions", "friction"],
+        [
+            {"x": 40.0, "z": 10.25, "theta": POLY_TILT, "vertices": TRIANGLE},
+            {"x": 41.4, "z": 10.0, "theta": 0.0, "vertices": TRAPEZOID},
+        ],
+        {"restitution": E, "density_ratio": R, "friction": MU},
+        contacts={"discs": POLY_DISCS},
+    )
+    return (Model(wall), wall), (Model(pair), pair), (Model(polys), polys)
+
+
+def discs_world(m, s, q, x):
+    """World disc centres and radius of polygon ``q`` of state ``s`` with its centre at ``x``."""
+    k = m.constants()
+    corners = np.stack([k["corner_u"][q], k["corner_v"][q]], -1)[: k["corners"][q]]
+    local, r = polygon_disc_local(corners, POLY_DISCS)
+    c, sn = np.cos(s["theta"][q]), np.sin(s["theta"][q])
+    return np.stack([x + local[:, 0] * c - local[:, 1] * sn, s["z"][q] + local[:, 0] * sn + local[:, 1] * c], -1), r
+
+
+def touching(m, s, gap=0.02):
+    """Body 0 moved in x until its discs are ``gap`` from body 1's (bisection)."""
+    other, rj = discs_world(m, s, 1, s["x"][1])
+    lo, hi = s["x"][0] - 3.0, s["x"][1]  # far apart, and overlapping
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        mine, ri = discs_world(m, s, 0, mid)
+        d = np.linalg.norm(mine[:, None, :] - other[None, :, :], axis=-1).min() - ri - rj
+        lo, hi = (mid, hi) if d > gap else (lo, mid)
+    s["x"][0] = lo
 
 
 def old_restitution(kk, vn, vt):
@@ -136,7 +173,7 @@ def measure(m, case, tilt, slide, s, moving):
 
 
 def sweep() -> list[dict]:
-    (mw, sw), (mp, sp) = models()
+    (mw, sw), (mp, sp), (mg, sg) = models()
     rows = []
     for tilt in TILTS:
         for slide in SLIDES:
@@ -157,6 +194,14 @@ def sweep() -> list[dict]:
                 s["vx"][i], s["vx"][j] = 2.0 * share, -2.0 * (1.0 - share)
                 s["vz"][i], s["vz"][j] = slide * share, -slide * (1.0 - share)
                 rows.append(measure(mp, case, tilt, slide, s, {i, j}))
+    k = mg.constants()
+    share = k["mass"][1] / (k["mass"][0] + k["mass"][1])
+    for slide in SLIDES:
+        s = initial(sg)
+        touching(mg, s)
+        s["vx"][0], s["vx"][1] = 2.0 * share, -2.0 * (1.0 - share)
+        s["vz"][0], s["vz"][1] = slide * share, -slide * (1.0 - share)
+        rows.append(measure(mg, "polygons", POLY_TILT, slide, s, {0, 1}))
     return rows
 
 
@@ -178,9 +223,16 @@ def plot(rows: list[dict], path: Path) -> None:
             ax[1].plot(x, [r["restitution_model"] for r in rs], marker, color=colors[tilt], mfc="none", ms=4)
             ax[1].plot(x, [r["restitution_v02"] for r in rs], "-", color=colors[tilt], lw=0.8)
             ax[2].plot(x, [r["friction_booked"] / r["ke_lost"] for r in rs], marker, color=colors[tilt], mfc="none", ms=4)
+    rs = [r for r in rows if r["case"] == "polygons"]
+    x = np.array([r["slide"] for r in rs])
+    style = dict(color="k", ms=5, ls="none")
+    ax[0].plot(x, [r["J_t"] / (MU * r["J_n"]) for r in rs], "D", label="polygons (triangle into trapezoid)", **style)
+    ax[1].plot(x, [r["restitution_model"] for r in rs], "D", **style)
+    ax[1].plot(x, [r["restitution_v02"] for r in rs], "-", color="k", lw=0.8)
+    ax[2].plot(x, [r["friction_booked"] / r["ke_lost"] for r in rs], "D", **style)
     ax[0].set_xlabel("sliding speed (case's set-up)")
     ax[0].set_ylabel("J_t / (mu J_n)  (|.| = 1: sliding on the cone)")
-    ax[0].set_title("model impulses (markers: o wall, s pair 1:1, ^ pair 1:10)", fontsize=9)
+    ax[0].set_title("model impulses (markers: o wall, s pair 1:1, ^ pair 1:10, D polygons)", fontsize=9)
     ax[0].legend(fontsize=7)
     ax[1].axhline(E, color="k", lw=1)
     ax[1].set_xlabel("sliding speed")
@@ -213,7 +265,7 @@ def main() -> None:
         f"{'case':8} {'points':>6} {'stick':>5} {'slide':>5} {'wrong':>5} {'max |K_nt/K_nn|':>15} {'err J':>8} {'err e':>8} "
         f"{'err ledgers':>11} {'err budget':>10} {'fric<0':>6} {'gains':>5} {'e (v0.2)':>12}"
     )
-    for case in ("wall", "pair_1", "pair_10"):
+    for case in ("wall", "pair_1", "pair_10", "polygons"):
         rs = [r for r in rows if r["case"] == case]
         stick = sum(r["regime"] == "stick" for r in rs)
         old = [r["restitution_v02"] for r in rs]
