@@ -47,21 +47,6 @@ WIDE = 80.0  # widths beyond which a frame gets a leading-edge zoom panel
 # Geometry (numpy; mirrors melange_ti.physics.shape.discs and melange_ti.scene)
 
 
-def rect_corners(x, z, theta, width, thickness) -> np.ndarray:
-    """World corners of each rectangle, counter-clockwise from (+u, -v): shape (N, 4, 2)."""
-    x, z, theta, width, thickness = (np.asarray(a, dtype=float) for a in (x, z, theta, width, thickness))
-    c, s = np.cos(theta), np.sin(theta)
-    hu, hv = 0.5 * width, 0.5 * thickness
-    su = np.array([1.0, 1.0, -1.0, -1.0])
-    sv = np.array([-1.0, 1.0, 1.0, -1.0])
-    u = su[None, :] * hu[:, None]
-    v = sv[None, :] * hv[:, None]
-    out = np.empty((x.shape[0], 4, 2))
-    out[:, :, 0] = x[:, None] + u * c[:, None] - v * s[:, None]
-    out[:, :, 1] = z[:, None] + u * s[:, None] + v * c[:, None]
-    return out
-
-
 def disc_centres(x, z, theta, width, thickness, discs: int) -> tuple[np.ndarray, np.ndarray]:
     """World disc centres (N, discs, 2) and radii (N,)."""
     local, r = disc_local(width, thickness, discs)
@@ -161,14 +146,16 @@ class IcebergArtist:
         self.ax = ax
         self.width = np.asarray(width, dtype=float)
         self.thickness = np.asarray(thickness, dtype=float)
-        # polygons (a run's /icebergs/corner_u, ...): body-frame corners (geometry.body_outlines)
-        # and the principal axes their capsize angle is measured by; None: rectangles
+        # every outline's body-frame corners (geometry.body_outlines: a run's /icebergs/corner_u,
+        # ... for polygons, rectangles' from their width and thickness), and the principal axes
+        # a polygon's capsize angle is measured by (None: rectangles)
         self.outline = outline
+        self.body = outline if outline is not None else body_outlines({"width": self.width, "thickness": self.thickness})
         self.axis = axis
-        self.discs = discs if outline is None else None  # polygons have no contacts yet, so no discs
+        self.discs = discs if outline is None else None  # the rectangles' discs only (a polygon's are not drawn)
         n = self.width.shape[0]
         self.rects = PolyCollection(
-            np.zeros((n, 4 if outline is None else outline.shape[1], 2)),
+            np.zeros((n, self.body.shape[1], 2)),
             cmap=cmap,
             norm=PHI_NORM,
             edgecolors="k",
@@ -203,10 +190,7 @@ class IcebergArtist:
 
     def update(self, x, z, theta, t: float | None = None) -> None:
         """Draw the icebergs at ``x, z, theta``, and (with bonds) the bonds intact at ``t``."""
-        if self.outline is None:
-            self.rects.set_verts(rect_corners(x, z, theta, self.width, self.thickness))
-        else:
-            self.rects.set_verts(world_outlines(x, z, theta, self.outline))
+        self.rects.set_verts(world_outlines(x, z, theta, self.body))
         if self.bond_lines is not None:
             self.bond_lines.set_segments(self.bonds.segments(x, z, theta, t))
         self.rects.set_array(diag.capsize_angle(np.asarray(theta, dtype=float), self.axis))

@@ -10,6 +10,16 @@ import taichi as ti
 from ..numerics import TINY
 from .discs import face_line, offset_term
 
+FACES = 4  # a rectangle's faces, in the order above
+FACE_BITS = 2  # a face's index in a candidate list's code (FACES <= 1 << FACE_BITS)
+
+
+@ti.func
+def grown(hw, hh, r, grow):
+    """A rectangle's half sizes grown by a disc radius ``r`` and by ``grow``: the box a disc's
+    centre must be inside to touch one of its discs with room ``grow``."""
+    return hw + r + grow, hh + r + grow
+
 
 @ti.func
 def face_spacing(hw, hh, r, k):

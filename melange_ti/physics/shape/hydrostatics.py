@@ -83,18 +83,16 @@ def _wet_edge(a: ti.template(), i, k: ti.template(), c, s, hw, hh, level):
     whether it leaves the water at ``b`` and whether it enters it at ``a``. A polygon's edges
     past its own corners are dry (the kernels visit the scene's most corners)."""
     n = ti.static(corners(a))
-    p = corner(a, i, k, c, s, hw, hh)
-    q = corner(a, i, (k + 1) % n, c, s, hw, hh)
-    p_wet = p[1] < level
-    q_wet = q[1] < level
+    p = ti.Vector([0.0, 0.0])
+    q = ti.Vector([0.0, 0.0])
+    has = 1
     if ti.static(polygons(a)):
-        count = ti.cast(a.b[i, Body.CORNERS], ti.i32)
-        if k + 1 == count:
-            q = corner(a, i, 0, c, s, hw, hh)  # the closing edge
-            q_wet = q[1] < level
-        elif k + 1 > count:
-            p_wet = False
-            q_wet = False
+        p, q, has = _edge(a, i, k, c, s)
+    else:
+        p = corner(a, i, k, c, s, hw, hh)
+        q = corner(a, i, ti.static((k + 1) % n), c, s, hw, hh)
+    p_wet = has and p[1] < level
+    q_wet = has and q[1] < level
     pa = p
     pb = q
     leaves = 0

@@ -25,7 +25,7 @@ from ..data.schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPos
 from ..effects import JOINED, JOINED_WALL
 from ..numerics import FAR, TINY
 from ..shape.discs import line_window, offset_term, polygon_disc
-from ..shape.faces import boxes_apart, face_in_j, face_spacing, j_face, pair_term
+from ..shape.faces import FACE_BITS, FACES, boxes_apart, face_in_j, face_spacing, grown, j_face, pair_term
 from ..shape.hydrostatics import halves, polygons
 from . import wall
 from .broad import cell_size, margin, reach
@@ -36,10 +36,9 @@ ENTRIES = 4
 MAX_RUNS = 62  # runs of kept pairs per entry (:func:`pack_pair`): k + 8 for k discs per face, at most this
 SKIN = 0.2
 
-# A kept run is one i32 code: i's face (2 bits), i's disc on it (6), j's face (2), j's
-# first disc (6), how many consecutive discs of j (7, from bit _LEN_SHIFT); so lists are
-# kept only up to MAX_FACE_DISCS discs per face.
-FACE_BITS = 2
+# A kept run is one i32 code: i's face (FACE_BITS: 2), i's disc on it (6), j's face (2),
+# j's first disc (6), how many consecutive discs of j (7, from bit _LEN_SHIFT); so lists
+# are kept only up to MAX_FACE_DISCS discs per face.
 DISC_BITS = 6
 MAX_FACE_DISCS = 1 << DISC_BITS
 _FB_SHIFT = DISC_BITS
@@ -231,11 +230,10 @@ def narrow(a: ti.template(), i, j, rch, motion):
         keep2 = keep * keep
         last = -1  # the last pair kept (its code without the run length)
         grow = rch + skin
-        faces = 4
+        faces = FACES
         if boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, grow):
             faces = 0  # the rectangles (which contain the discs) cannot meet this step
-        lim_u = hwj + ri + grow
-        lim_v = hhj + ri + grow
+        lim_u, lim_v = grown(hwj, hhj, ri, grow)
         for fa in range(faces):
             lo_a, hi_a = 0, k - 1
             # i's discs on this face, in j's frame, are (au0, av0) + ia (dau, dav): keep
@@ -251,7 +249,7 @@ def narrow(a: ti.template(), i, j, rch, motion):
                     continue
                 # j's faces are axis-aligned in its frame (a dynamic loop: unrolled, the
                 # kernels took twice as long to compile, for ~10% of this loop's time)
-                for fb in range(4):
+                for fb in range(FACES):
                     perp, along, st, inv_st = j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv)
                     if ti.abs(perp) < keep:
                         lo_b, hi_b = 0, k - 1
