@@ -154,10 +154,10 @@ def cut_shelf_forms():
 
 
 def test_a_cut_shelf_breaks_and_every_form_gives_the_same_bits(cut_shelf_forms):
-    """Bonds between pieces cut at about 0.25 rad, which are not in balance alone (a leaning
-    piece's buoyancy acts off its centre of mass), at a strength of 0.2 (140 kPa at w = 70 m):
-    some break, some hold, and the serial, parallel, grouped and island forms agree bit for
-    bit."""
+    """Bonds between pieces cut at about 0.25 rad (each out of balance alone, its buoyancy
+    off its centre of mass), at a strength of 0.2 (140 kPa at w = 70 m), the three free
+    leaning icebergs in front tipping against the shelf: some bonds break, some hold, and
+    the serial, parallel, grouped and island forms agree bit for bit."""
     same_bits_breaking_some(cut_shelf_forms)
 
 
