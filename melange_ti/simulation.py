@@ -8,6 +8,7 @@ ledgers and energies to every output that is due.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import math
 import os
@@ -27,6 +28,7 @@ from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
 from .io.hdf5 import COMPLETE_ATTR, FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_run, scene_text
 from .model import Model
+from .physics.data.schema import BODIES
 from .physics.step.stages import SAMPLE_NAMES
 from .scene import Icebergs, Scene
 
@@ -284,6 +286,19 @@ class Snapshots:
         sim.writer.snapshot(t, s)
 
 
+# What an iceberg is made of besides its state (the fields of Icebergs that a step never
+# changes): kept in every checkpoint, so that a resumed or extended run is built from the very
+# bodies it began with (a polygon's corners, not the rectangle of its extents), with no
+# [start] file to read again
+SHAPE_FIELDS = tuple(f.name for f in dataclasses.fields(Icebergs) if f.name not in BODIES.outputs("state"))
+
+
+def shape_of(bergs: Icebergs) -> dict[str, np.ndarray]:
+    """The checkpoint's record of ``bergs``' shapes (:data:`SHAPE_FIELDS`; a field that is
+    ``None``, e.g. no outline in a scene of rectangles, is left out)."""
+    return {name: getattr(bergs, name) for name in SHAPE_FIELDS if getattr(bergs, name) is not None}
+
+
 class Checkpoints:
     """Everything the next step depends on (:mod:`melange_ti.io.checkpoint`): the state and
     every ledger and counter the schema names, and the icebergs' sizes as the model was built
@@ -306,8 +321,7 @@ class Checkpoints:
             **{f"state_{k}": v for k, v in sim.model.state().items()},
             **{f"acc_{k}": v for k, v in sim.model.accumulators().items()},
             **self.diagnostics.counters.save(),
-            "width": sim.bergs.width,
-            "thickness": sim.bergs.thickness,
+            **shape_of(sim.bergs),
             "x0_max": sim.x0_max,
             "e0": sim.e0,
             "p0": sim.p0,
@@ -590,6 +604,11 @@ class Simulation:
                 f"--resume: {self.out} is in run-file format {version}, this melange_ti writes {FORMAT_VERSION}: "
                 "continue the run with the version that began it, or start it again"
             )
+        if int(ck["format_version"]) < 8 and "corners" in data["icebergs"]:  # its outlines were not kept
+            raise RunError(
+                f"--resume: checkpoint {self.ckpt} was written by an earlier melange_ti that kept no outlines, and "
+                f"{self.out} holds polygons: continue the run with that version, or start it again"
+            )
         text = self.scene.to_toml()
         stored = scene_text(self.out, data)
         for was in (str(ck[SCENE_ATTR]), stored):
@@ -620,10 +639,11 @@ class Simulation:
 
     @staticmethod
     def _resumed_icebergs(ck: dict) -> Icebergs:
-        """The icebergs the run was built from: sizes as first given (exact, whatever the
-        precision), the state of the checkpoint (replaced by :meth:`_reopen` anyway)."""
+        """The icebergs the run was built from: every shape as first given (exact, whatever
+        the precision: :func:`shape_of`), the state of the checkpoint (replaced by
+        :meth:`_reopen` anyway)."""
         state = {k[6:]: np.asarray(ck[k], dtype=np.float64) for k in ck if k.startswith("state_")}
-        return Icebergs(**state, width=ck["width"], thickness=ck["thickness"])
+        return Icebergs(**state, **{name: ck[name] for name in SHAPE_FIELDS if name in ck})
 
     def _reopen(self, model: Model, dtype, ck: dict):
         step = int(ck["step"])

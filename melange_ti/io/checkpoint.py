@@ -20,11 +20,15 @@ def checkpoint_path(run_path: str | Path) -> Path:
     return run_path.with_name(run_path.name + ".ckpt")
 
 
-FORMAT_VERSION = 7  # 7: an owning effect's table gained a column; an effect's per-body state carried (BODY_CARRIED);
+FORMAT_VERSION = 8  # 8: the icebergs' outlines (a polygon's corners), besides width and thickness;
+# 7: an owning effect's table gained a column; an effect's per-body state carried (BODY_CARRIED);
 # 6: the coloured passes' counters; an owning effect's table may have changed its rows;
 # 5: an effect's run-wide ledger in acc (and an owning effect's table, under its name);
 # 4: the friction ledger in acc;
 # 3: ledgers and counters named by the schema
+# Versions a resume still reads: a version-7 checkpoint lacks only the outlines, which a run of
+# rectangles does not need (Simulation._check_resume refuses one of a run with polygons)
+READABLE = (7, FORMAT_VERSION)
 
 
 def save(path: str | Path, data: dict[str, np.ndarray | str | int | float]) -> None:
@@ -57,7 +61,7 @@ def load(path: str | Path) -> dict[str, np.ndarray]:
             data = {k: z[k] for k in z.files}
     except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as exc:
         raise ValueError(f"damaged ({exc.__class__.__name__})") from None
-    if int(data.get("format_version", -1)) != FORMAT_VERSION:
+    if int(data.get("format_version", -1)) not in READABLE:
         raise ValueError(
             f"format version {int(data.get('format_version', -1))}, expected {FORMAT_VERSION} (written by another "
             "melange_ti version: continue the run with that version, or start it again)"
