@@ -23,10 +23,10 @@ import tomllib
 
 from . import __version__
 from . import diagnostics as diag
-from .energy import runaway, total_energy
+from .energy import RESIDUAL_TRUSTED, budget_series, budget_verdict, runaway, total_energy  # noqa: F401 (RESIDUAL_TRUSTED: as before)
 from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
-from .io.hdf5 import COMPLETE_ATTR, FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_run, scene_text
+from .io.hdf5 import COMPLETE_ATTR, FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_diagnostics, read_run, scene_text
 from .model import Model
 from .physics.data.schema import BODIES
 from .physics.step.stages import SAMPLE_NAMES
@@ -77,11 +77,6 @@ def _default_keys() -> dict:
     return _flat(scn.load(None).to_toml())
 
 
-# The largest budget residual, as a fraction of the released energy, a run reports without a
-# warning: the paper scene's is 0.03% at dt = 0.01 and grows with dt (docs/model.md, Time stepping).
-RESIDUAL_TRUSTED = 0.01
-
-
 def _doc(text: str):
     """A field with its meaning (docs/api.md's RunSummary table is generated from these)."""
     return field(metadata={"doc": text})
@@ -112,6 +107,17 @@ class RunSummary:
     dissipated: float = _doc("what the energy ledgers booked (docs/output.md, the energy budget)")
     energy_residual: float = _doc("energy_lost - dissipated: the time integrator's error")
     backend: str = _doc('the Taichi backend that ran it ("x64", "arm64", "cuda", "vulkan", ...)')
+    residual_largest: float = _doc(
+        "the budget's residual of largest magnitude over the run's diagnostics (signed; what the budget's warning judges)"
+    )
+    residual_largest_time: float = _doc("the time of residual_largest")
+    released_largest: float = _doc("the largest potential energy released at any diagnostic time")
+    dissipated_largest: float = _doc("the largest energy the ledgers had booked at any diagnostic time")
+    dt: float = _doc("the time step, time.dt")
+    dt_accepted: float = _doc(
+        "the largest time.dt the scene accepts, a share of the stability limit 2/omega of its stiffest heave (NaN without "
+        "buoyancy: docs/model.md, 'The largest time step')"
+    )
 
     def lines(self) -> list[str]:
         share = f"{self.energy_residual / self.energy_released:.2%} of released" if self.energy_released else "none released"
@@ -134,21 +140,18 @@ class RunSummary:
         ]
 
     def _untrusted(self) -> list[str]:
-        """A warning when the budget's residual, the integrator's error, is above
-        :data:`RESIDUAL_TRUSTED` of the released energy (0.03% on the paper scene at its dt), or
-        of the energy dissipated where that is larger (a run that released little while its
-        ledgers booked much is not judged by the little)."""
-        released, residual = self.energy_released, self.energy_residual
-        scale = max(abs(released), abs(self.dissipated))
-        if not released or abs(residual) <= RESIDUAL_TRUSTED * scale:  # a NaN residual warns too
-            return []
-        pct = 100.0 * residual / released
-        pct = f"{pct:.2g}" if abs(pct) < 10 else f"{pct:.0f}"
-        return [
-            f"warning: the energy budget's residual is {pct}% of the released energy (above "
-            f"{RESIDUAL_TRUSTED:.0%}): too large to trust these results; a smaller time.dt shrinks it "
-            "(docs/model.md, Time stepping)"
-        ]
+        """A warning when the budget does not close: its largest residual over the run past
+        :data:`melange_ti.energy.RESIDUAL_TRUSTED` of the largest energy released (or
+        dissipated, where that is larger): :func:`melange_ti.energy.budget_verdict`."""
+        verdict = budget_verdict(
+            self.residual_largest,
+            self.released_largest,
+            self.dissipated_largest,
+            self.residual_largest_time,
+            dt=self.dt or None,
+            accepted=self.dt_accepted,
+        )
+        return [verdict] if verdict else []
 
 
 def _utc_now() -> str:
@@ -687,4 +690,26 @@ class Simulation:
             dissipated=dissipated,
             energy_residual=lost - dissipated,
             backend=self.backend,
+            **self._budget_over_run(),
         )
+
+    def _budget_over_run(self) -> dict[str, float]:
+        """The budget's largest residual over the whole run (from the file's diagnostics, so a
+        resumed run is judged from t = 0) and what it is judged against."""
+        from .scene.initial import DT_SAFETY, time_step_limit
+
+        try:
+            b = budget_series(read_diagnostics(self.out))
+        except OutputError:
+            b = {k: np.zeros(0) for k in ("time", "released", "dissipated", "residual")}
+        res = b["residual"]
+        k = int(np.argmax(~np.isfinite(res))) if (~np.isfinite(res)).any() else int(np.argmax(np.abs(res))) if res.size else 0
+        limit = time_step_limit(self.scene, self.bergs)
+        return {
+            "residual_largest": float(res[k]) if res.size else 0.0,
+            "residual_largest_time": float(b["time"][k]) if res.size else 0.0,
+            "released_largest": float(np.nanmax(np.abs(b["released"]), initial=0.0)),
+            "dissipated_largest": float(np.nanmax(np.abs(b["dissipated"]), initial=0.0)),
+            "dt": float(self.scene.time.dt),
+            "dt_accepted": DT_SAFETY * float(limit[0]) if limit is not None else float("nan"),
+        }

@@ -20,7 +20,8 @@ import pytest
 import melange_ti as mt
 from melange_ti import cli
 from melange_ti import scene as scn
-from melange_ti.energy import total_energy
+from melange_ti.energy import budget_series, total_energy
+from melange_ti.io.hdf5 import read_run
 from melange_ti.geometry import potential_energy
 from melange_ti.scene import DENSITY_RATIO as R
 from melange_ti.scene.initial import DT_SAFETY, time_step_limit
@@ -129,19 +130,54 @@ def test_largest_accepted_dt_is_stable_and_twice_it_runs_away():
 
 
 # ----------------------------------------------------------------------------- the budget's warning
-def _summary(released: float, residual: float) -> list[str]:
+def _summary(released: float, residual: float, largest: float | None = None, dissipated: float = 0.0) -> list[str]:
+    """A summary whose budget ended at ``residual`` and reached ``largest`` (default: the end's)."""
     values = {f.name: 0 for f in dataclasses.fields(RunSummary)}
     values.update(path="r.h5", steps=10, wall_seconds=1.0, startup_seconds=0.5, startup_steps=5, steps_per_second=10.0)
-    values.update(compiled=False, backend="x64", energy_released=released, energy_residual=residual)
+    values.update(compiled=False, backend="x64", energy_released=released, energy_residual=residual, dt=0.01)
+    values.update(residual_largest=residual if largest is None else largest, released_largest=released)
+    values.update(dissipated_largest=dissipated, residual_largest_time=7.0, dt_accepted=float("nan"))
     return RunSummary(**values).lines()
 
 
 def test_summary_warns_when_the_residual_is_too_large_to_trust():
     warn = [ln for ln in _summary(8.0, -3.9) if ln.startswith("warning:")]
-    assert len(warn) == 1 and "-49%" in warn[0] and "time.dt" in warn[0], warn
+    assert len(warn) == 1 and "-49%" in warn[0] and "time.dt = 0.01" in warn[0] and "does not close" in warn[0], warn
     assert any(ln.startswith("warning:") for ln in _summary(2.0, 1.01 * RESIDUAL_TRUSTED * 2.0))
     for released, residual in ((2.0, -0.99 * RESIDUAL_TRUSTED * 2.0), (8.0, 0.0024), (0.0, 0.0)):
         assert not any(ln.startswith("warning:") for ln in _summary(released, residual))
+    # judged by the largest residual over the run, not by the end's
+    warn = [ln for ln in _summary(2.0, 0.0, largest=-0.1) if ln.startswith("warning:")]
+    assert len(warn) == 1 and "-5%" in warn[0] and "t = 7" in warn[0], warn
+    # against what the ledgers booked, where that is larger (a struck iceberg releases little)
+    assert not any(ln.startswith("warning:") for ln in _summary(0.1, 0.01, dissipated=1.0))
+    assert any(ln.startswith("warning:") for ln in _summary(0.1, float("nan"), dissipated=1.0))
+
+
+def test_a_run_near_its_time_step_limit_is_flagged_in_the_summary_and_the_plot(tmp_path, capsys):
+    """The new user's case (issue 47): a lone capsize at time.dt = 0.5, accepted (its limit is
+    0.567), ran with a budget far from closed and no word. Its summary and `plot` now say that
+    the budget does not close, when, and what to change; the same capsize at the default step
+    is not flagged."""
+    text = scn.bundled_scene_text("single_capsize")
+    flagged = {}
+    for dt in (0.5, 0.01):
+        path = tmp_path / f"dt{dt}.h5"
+        sc = scn.loads(text, [("time.dt", dt), ("time.duration", 100.0)])
+        summary = mt.run(sc, path)
+        warn = [ln for ln in summary.lines() if ln.startswith("warning:")]
+        flagged[dt] = warn
+        if warn:  # the largest residual over the run is what it says
+            b = budget_series(read_run(path)["diagnostics"])
+            k = int(np.argmax(np.abs(b["residual"])))
+            assert summary.residual_largest == b["residual"][k] and summary.residual_largest_time == b["time"][k]
+    assert len(flagged[0.5]) == 1 and "does not close" in flagged[0.5][0] and "time.dt = 0.5" in flagged[0.5][0]
+    assert "accepts up to 0.567" in flagged[0.5][0], flagged[0.5]
+    assert flagged[0.01] == []
+    capsys.readouterr()
+    assert cli.main(["plot", str(tmp_path / "dt0.5.h5"), str(tmp_path / "dt0.01.h5"), "--out", str(tmp_path / "figs")]) == 0
+    said = [ln for ln in capsys.readouterr().out.splitlines() if "does not close" in ln]
+    assert len(said) == 1 and said[0].startswith(str(tmp_path / "dt0.5.h5")), said
 
 
 # ----------------------------------------------------------------------------- effects

@@ -51,6 +51,7 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 
 from ..diagnostics import ENERGY_LEDGERS  # noqa: E402
+from ..energy import budget_series, budget_verdict  # noqa: E402
 from ..errors import RunError  # noqa: E402
 from ..geometry import body_outlines, world_outlines  # noqa: E402
 from ..io.hdf5 import OutputError, is_partial, read_run  # noqa: E402
@@ -372,7 +373,16 @@ def fig_energy_budget(groups: Sequence[Group], units: Units):
         rel = terms["released"].mean[-1]
         res = terms["residual"].mean[-1]
         ratio = f" ({res / rel:.2%} of released)" if rel else ""
-        ax.set_title(f"{_label(g)}\nresidual at t = {grid[-1]:g}: {res:.3g}{ratio}", fontsize=9)
+        title = f"{_label(g)}\nresidual at t = {grid[-1]:g}: {res:.3g}{ratio}"
+        dissipated = sum(terms[name].mean for name in stats.LEDGER_TERMS)
+        if budget_verdict(terms["residual"].mean, terms["released"].mean, dissipated, grid):  # plainly, on the figure
+            k = int(np.nanargmax(np.abs(terms["residual"].mean)))
+            top = float(np.nanmax(np.abs(terms["released"].mean)))
+            share = f"{terms['residual'].mean[k] / top:.1%} of the largest released" if top else f"{terms['residual'].mean[k]:.3g}"
+            title += f"\nTHE BUDGET DOES NOT CLOSE: residual {share} at t = {grid[k]:g} (time step too long?)"
+        ax.set_title(title, fontsize=9, color="black")
+        if "DOES NOT CLOSE" in title:
+            ax.title.set_color("tab:red")
         ax.set_ylabel("energy (ρ_w g w³ per unit length)")
         ax.grid(alpha=0.3)
         time_axes(ax, units, float(grid[-1]))
@@ -826,6 +836,12 @@ def main(args) -> int:
             upto = f"t = {t[-1]:g}" if len(t) else "no diagnostics"
             print(f"note: {path} is a partial run (stopped, or still running): up to {upto} of {end:g}")
     written = plot(paths, args.out, times=parse_times(args.times), width_m=args.width_m)
+    for path in paths:  # a budget that does not close, said per run (the figure's title says it too)
+        data = read_run(path)
+        b = budget_series(data["diagnostics"])
+        verdict = budget_verdict(b["residual"], b["released"], b["dissipated"], b["time"], dt=stored_scene(path, data).time.dt)
+        if verdict:
+            print(f"{path}: {verdict}")
     with open(out / "summary.csv") as fh:
         rows = list(csv.DictReader(fh))
     for row in rows:

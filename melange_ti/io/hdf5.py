@@ -415,6 +415,15 @@ def read_run(path: str | Path) -> dict:
     return out
 
 
+def read_diagnostics(path: str | Path) -> dict[str, np.ndarray]:
+    """The ``/diagnostics`` group alone as ``{name: values}``, cut to its consistent length
+    (the run's energy budget at its end, without reading the snapshots)."""
+    with _reading(path) as f:
+        g = f["diagnostics"]
+        n = consistent_length(g)
+        return {k: ds[:n] for k, ds in g.items()}
+
+
 def read_group(path: str | Path, group: str) -> tuple[dict, np.ndarray] | None:
     """One group an effect declares (:data:`DATASETS`, written once) as ``{name: values}``,
     with the snapshots' times (to their consistent length); ``None`` if the file has no
