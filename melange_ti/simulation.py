@@ -98,7 +98,10 @@ class RunSummary:
     steps_per_second: float = _doc(
         "stepping speed after the first launch, compiling excluded (NaN when the run was too short to have steps after it)"
     )
-    compiled: bool = _doc("true when the kernels were compiled, false when loaded from the cache of an earlier run")
+    compiled: bool = _doc(
+        "true when the first launch compiled kernels, false when it loaded them all from Taichi's cache (as Taichi said: "
+        "runtime.watch_compiling)"
+    )
     time: float = _doc("simulated time reached")
     capsized_fraction: float = _doc("fraction of icebergs capsized (tilt past 45 degrees) at the end")
     leading_edge: float = _doc("how far the front moved, max x(t) - max x(0), in widths, at the end")
@@ -121,7 +124,7 @@ class RunSummary:
 
     def lines(self) -> list[str]:
         share = f"{self.energy_residual / self.energy_released:.2%} of released" if self.energy_released else "none released"
-        how = "compiling the kernels" if self.compiled else "loading the kernels from the cache"
+        how = "compiling the kernels" if self.compiled else "loading the kernels from Taichi's cache"
         rest = self.steps - self.startup_steps
         speed = (
             f"then {rest} steps at {self.steps_per_second:,.0f} steps/s"
@@ -452,18 +455,17 @@ class Simulation:
             writer = RunWriter(self.out, attrs, model.constants(), dtype, own=own)
         self.writer = writer
         self.total_mass = float(model.constants()["mass"].sum())
-        # the first launch compiles the kernels, or loads them from Taichi's offline cache
-        stamp = runtime.kernels_stamp(f"{','.join(scene.effects.names())}|{scene.precision}|{model.mode}|{model.order}")
-        self.compiled = stamp is None or not stamp.exists()
-        what = "compiling kernels (cached for later runs)" if self.compiled else "loading kernels from the cache"
+        # the first launch compiles the kernels, or loads them from Taichi's offline cache: which
+        # of the two happened is measured (runtime.watch_compiling), not foretold
         bar = None
         if self.progress:
             from tqdm import tqdm
 
             bar = tqdm(total=self.total, initial=start_step, unit="step", unit_scale=True, dynamic_ncols=True, leave=False)
-            bar.set_description(what)
-        elif self.compiled and self.announce:
-            print(f"melange-ti: {what}", file=sys.stderr, flush=True)
+            bar.set_description("compiling the kernels, or loading them from the cache")
+        watch = contextlib.ExitStack()
+        seen = watch.enter_context(runtime.watch_compiling())
+        self.compiled = False
         t0 = wallclock.perf_counter()
         self.startup = None  # (seconds, steps) of the first launch
         step = start_step
@@ -488,10 +490,8 @@ class Simulation:
                     pace = (stops[-1] - step) / max(wallclock.perf_counter() - launched, 1e-9)
                 if self.startup is None:
                     self.startup = (wallclock.perf_counter() - t0, stops[-1] - step)
-                    if stamp is not None:
-                        with contextlib.suppress(OSError):  # a read-only cache: said again next time
-                            stamp.parent.mkdir(parents=True, exist_ok=True)
-                            stamp.touch()
+                    watch.close()
+                    self._said_compiling(seen, bar)
                 for nxt, got in zip(stops, sampled or [None], strict=True):
                     if bar is not None:
                         if step == start_step:
@@ -508,12 +508,25 @@ class Simulation:
                 self.ckpt.unlink(missing_ok=True)
             raise
         finally:
+            watch.close()
             interrupt.restore()
             if bar is not None:
                 bar.close()
             writer.close(complete=step >= self.total)
         wall = wallclock.perf_counter() - t0
         return self._summary(step - start_step, wall)
+
+    def _said_compiling(self, seen, bar) -> None:
+        """After the first launch: whether it compiled kernels (measured), said on stderr when
+        it did (a terminal's bar says it was preparing them meanwhile)."""
+        self.compiled = seen.kernels > 0
+        if self.compiled and self.announce and bar is None:
+            print(
+                f"melange-ti: compiled {seen.kernels} kernels in {seen.seconds:.1f} s (Taichi caches them: a later run of this kind loads "
+                "them in about a second)",
+                file=sys.stderr,
+                flush=True,
+            )
 
     def _launch_cap(self, step: int, stops: list[int], pace: float | None) -> int:
         """The most steps the next launch may take: ``CHECK_SECONDS`` at ``pace``, the steps
