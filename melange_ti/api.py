@@ -140,6 +140,13 @@ def _open_tree(xr, path: Path, complete: bool):
     return tree
 
 
+# Variables of the run file whose name an attribute of xarray's DataTree or Dataset takes
+# first, so ``tree["icebergs"].width`` is DataTree's own ``width`` (an integer) and not the
+# variable: read these as ``tree["icebergs"]["width"]`` (docs/output.md, README). The file's
+# names are the contract and stay; tests/test_analysis.py finds every such name anew.
+XARRAY_SHADOWED = ("icebergs/width",)
+
+
 def open_run(path: str | Path):
     """The run file ``path`` as an :class:`xarray.DataTree`: groups ``icebergs``,
     ``snapshots`` and ``diagnostics`` with named dimensions ``time`` and ``iceberg``, ``time``
@@ -149,7 +156,9 @@ def open_run(path: str | Path):
     dimension (docs/output.md shows one plotted against it). A file still being
     written (or cut short by a kill) is read up to its last consistent row. The tree reads
     lazily and keeps the file open: close it (``tree.close()``, or ``with mt.open_run(p) as
-    tree:``) before opening the file again to see rows written since."""
+    tree:``) before opening the file again to see rows written since. Read a variable by
+    item, ``tree["icebergs"]["width"]``, where an xarray attribute shadows its name
+    (:data:`XARRAY_SHADOWED`); attribute access works for the others."""
     import xarray as xr
 
     from .io.hdf5 import DATASETS, consistent_lengths

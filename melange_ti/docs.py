@@ -137,6 +137,7 @@ def _bundled(name: str) -> str:
 
 
 def output_page() -> str:
+    from .api import XARRAY_SHADOWED
     from .io.hdf5 import DATASETS, DIMS, FORMAT_VERSION, variable_attrs
     from .physics.effects import REGISTRY
 
@@ -158,6 +159,12 @@ def output_page() -> str:
         "",
         "(`mt.open_run` is `xarray.open_datatree(path, engine='h5netcdf')` cut to the rows every",
         "variable holds), or with plain h5py (`melange_ti.io.hdf5.read_run` gives numpy arrays).",
+        "",
+        "Reading a variable as an attribute (`tree['diagnostics'].capsized_fraction`) works for every",
+        "name but those an attribute of xarray's `DataTree` or `Dataset` takes first: "
+        + ", ".join(f"`/{name}`" for name in XARRAY_SHADOWED)
+        + " (`tree['icebergs'].width` is the tree's own width, an integer). Read those by item:",
+        "`tree['icebergs']['width']`; the item form works for every variable.",
         "",
         "The file is written as the run goes: each snapshot is flushed at once, diagnostics at each",
         "snapshot and checkpoint, the `time` variable of a group last, so a reader (also while the",

@@ -148,3 +148,35 @@ def test_plot_reads_files_older_than_each_diagnostic(tmp_path):
             h.attrs["format_version"] = f.since
         with pytest.raises(Exception, match=f"missing {f.name}"):
             load_run(old)
+
+
+def test_every_name_xarray_shadows_is_documented(tmp_path):
+    """Issue 47: ``tree["icebergs"].width`` is DataTree's own ``width`` (an integer), not the
+    variable. Every name the file can hold (any effect's, polygons' included) is checked
+    against the attributes of xarray's DataTree and Dataset as installed; the shadowed ones
+    must be exactly those documented (``api.XARRAY_SHADOWED``: docs/output.md and the README
+    name each, with the item form that works), and on a real file the item form gives the
+    variable where attribute access does not."""
+    import xarray as xr
+
+    import melange_ti as mt
+    from melange_ti.api import XARRAY_SHADOWED
+    from melange_ti.io.hdf5 import DIMS, variable_attrs
+
+    from .conftest import ROOT
+
+    names = [f"{group}/{name}" for group, variables in variable_attrs().items() for name in variables] + list(DIMS)
+    shadowed = {n for n in names if any(hasattr(kind, n.rsplit("/", 1)[-1]) for kind in (xr.DataTree, xr.Dataset))}
+    assert shadowed == set(XARRAY_SHADOWED), "document every shadowed name in api.XARRAY_SHADOWED"
+    output_md, readme = (ROOT / "docs" / "output.md").read_text(), (ROOT / "README.md").read_text()
+    for name in XARRAY_SHADOWED:
+        group, var = name.split("/")
+        assert f"`/{name}`" in output_md and f"['{group}']['{var}']" in output_md
+        assert f'["{group}"]["{var}"]' in readme, "the README, where a user reads first, shows the item form"
+    path = tmp_path / "r.h5"
+    mt.run(mt.load_scene(overrides={"shelf.count": 3, "time.duration": 1.0}), path)
+    with mt.open_run(path) as tree:
+        for name in XARRAY_SHADOWED:
+            group, var = name.split("/")
+            assert isinstance(tree[group][var], xr.DataArray) and tree[group][var].size == 3
+            assert not isinstance(getattr(tree[group], var), xr.DataArray)
