@@ -38,6 +38,7 @@ class Field(NamedTuple):
     long_name: str
     compute: Callable[[Event], float]
     since: int = 1
+    owner: str | None = None  # the effect whose diagnostic it is: in a run file only when the scene names it
 
 
 def _ledger_fields() -> tuple[Field, ...]:
@@ -52,7 +53,9 @@ def _ledger_fields() -> tuple[Field, ...]:
             compute = lambda e: float(np.sum(e.sample[name]))  # noqa: E731
         else:
             compute = lambda e: getattr(e.totals, name)  # noqa: E731
-        return Field(name, "f8", cols[name].units, cols[name].doc, compute, cols[name].since)
+        # drag_dissipated is the paper's (SPEC): every run holds it, form_drag books into it too
+        owner = cols[name].owner if cols[name].owner != "drag" else None
+        return Field(name, "f8", cols[name].units, cols[name].doc, compute, cols[name].since, owner)
 
     return tuple(field(name) for name in ENERGY_LEDGERS)
 
@@ -61,10 +64,10 @@ def _held_fields() -> tuple[Field, ...]:
     """Every energy an effect holds (its declaration's ``held``), part of ``E``: the value the
     effect's sample gives; without the effect, the declaration's ``without`` (0)."""
 
-    def field(q) -> Field:
-        return Field(q.name, "f8", q.units, q.doc, lambda e: float(e.sample.get(q.name, q.without(e.sample))), q.since)
+    def field(q, owner: str) -> Field:
+        return Field(q.name, "f8", q.units, q.doc, lambda e: float(e.sample.get(q.name, q.without(e.sample))), q.since, owner)
 
-    return tuple(field(q) for eff in REGISTRY for q in eff.held)
+    return tuple(field(q, eff.name) for eff in REGISTRY for q in eff.held)
 
 
 def _report_fields() -> tuple[Field, ...]:
@@ -72,10 +75,10 @@ def _report_fields() -> tuple[Field, ...]:
     count: the value its sample gives; without the effect, the declaration's ``without``
     (``fragments``: the icebergs, each its own piece; any other 0)."""
 
-    def field(q) -> Field:
-        return Field(q.name, "i8", q.units, q.doc, lambda e: int(e.sample.get(q.name, q.without(e.sample))), q.since)
+    def field(q, owner: str) -> Field:
+        return Field(q.name, "i8", q.units, q.doc, lambda e: int(e.sample.get(q.name, q.without(e.sample))), q.since, owner)
 
-    return tuple(field(q) for eff in REGISTRY for q in eff.reports)
+    return tuple(field(q, eff.name) for eff in REGISTRY for q in eff.reports)
 
 
 HELD: tuple[str, ...] = tuple(q.name for eff in REGISTRY for q in eff.held)  # energies part of E beyond the icebergs'
@@ -134,14 +137,29 @@ FIELDS: tuple[Field, ...] = (
 NAMES: tuple[str, ...] = tuple(f.name for f in FIELDS)
 
 
-def row(event: Event) -> dict[str, float]:
-    """The diagnostics of one event, ``time`` first."""
-    return {"time": event.t, **{f.name: f.compute(event) for f in FIELDS}}
+# The run-file format from which a run holds only the diagnostics of the effects its scene
+# names (io.hdf5.FORMAT_VERSION 7); older files hold every one, 0 for an effect not named
+OWN_DIAGNOSTICS_SINCE = 7
 
 
-def required(format_version: int) -> tuple[str, ...]:
-    """The diagnostics every run file of ``format_version`` holds (``time`` first)."""
-    return ("time", *(f.name for f in FIELDS if f.since <= format_version))
+def fields(effects: Any = None) -> tuple[Field, ...]:
+    """The diagnostics of a run whose scene names ``effects`` (an ``Effects``, or anything
+    with a true attribute per effect named; ``None``: every one): the model's own and those
+    of the effects named ("simulate only the effects a scene calls for")."""
+    return tuple(f for f in FIELDS if effects is None or f.owner is None or getattr(effects, f.owner))
+
+
+def row(event: Event, chosen: tuple[Field, ...] = FIELDS) -> dict[str, float]:
+    """The diagnostics ``chosen`` (default: every one) of one event, ``time`` first."""
+    return {"time": event.t, **{f.name: f.compute(event) for f in chosen}}
+
+
+def required(format_version: int, effects: Any = None) -> tuple[str, ...]:
+    """The diagnostics every run file of ``format_version`` holds (``time`` first); from
+    :data:`OWN_DIAGNOSTICS_SINCE` on, only those of its scene's ``effects`` (given: else
+    every one)."""
+    chosen = fields(effects) if format_version >= OWN_DIAGNOSTICS_SINCE else FIELDS
+    return ("time", *(f.name for f in chosen if f.since <= format_version))
 
 
 def capsize_angle(theta: np.ndarray, axis: np.ndarray | None = None) -> np.ndarray:

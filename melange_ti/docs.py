@@ -11,6 +11,7 @@ the API from its docstrings.
 from __future__ import annotations
 
 import argparse
+import re
 import dataclasses
 import inspect
 import io
@@ -138,6 +139,7 @@ def _bundled(name: str) -> str:
 
 def output_page() -> str:
     from .api import XARRAY_SHADOWED
+    from .diagnostics import FIELDS
     from .io.hdf5 import DATASETS, DIMS, FORMAT_VERSION, variable_attrs
     from .physics.effects import REGISTRY
 
@@ -214,6 +216,7 @@ def output_page() -> str:
     )
     dims = {"icebergs": "(iceberg)", "snapshots": "(time, iceberg)", "diagnostics": "(time)"}
     declared = {d.path: d for d in DATASETS}
+    owners = {f.name: f.owner for f in FIELDS}
     for group, variables in meta.items():
         for name, attrs in sorted(variables.items(), key=lambda kv: (kv[0] != "time", kv[0])):
             d = "(time)" if name == "time" else dims.get(group, "")
@@ -222,7 +225,11 @@ def output_page() -> str:
                 d = "(" + ", ".join((*(("time",) if group == "snapshots" else ()), *decl.dims)) + ")"
             if group == "icebergs" and name in ("corner_u", "corner_v"):
                 d = "(iceberg, corner)"
-            out.append(f"| `/{group}/{name}` | {d} | {_cell(attrs['units'])} | {_cell(attrs['long_name'])} |")
+            meaning = attrs["long_name"]
+            if group == "diagnostics" and owners.get(name):  # in a run whose scene names the effect only
+                meaning = re.sub(r" \(0 without the \w+ effect\)", "", re.sub(r"; 0 without the \w+ effect\)", ")", meaning))
+                meaning = f"with the {owners[name]} effect: {meaning}"
+            out.append(f"| `/{group}/{name}` | {d} | {_cell(attrs['units'])} | {_cell(meaning)} |")
     coords = [d for d in DATASETS if d.coordinate]
     out += [
         "",
@@ -263,8 +270,9 @@ def _budget_section() -> list[str]:
         "```",
         "",
         f"with `E = {' + '.join(('kinetic_energy', 'potential_energy', *HELD))}` (`mt.total_energy`; an energy an effect "
-        "holds is 0 without the effect). A ledger of an effect the scene does not name",
-        "stays zero. `melange-ti plot` draws this budget (`energy_budget.png`) and writes the",
+        "holds counts 0 without the effect). A ledger or energy of an effect the scene does not name",
+        "is not in its file (format 7 on; older files hold it as zeros), and counts 0 in the budget.",
+        "`melange-ti plot` draws this budget (`energy_budget.png`) and writes the",
         "residual at the end to `summary.csv` (`energy_residual_end`, with the ledgers summed in",
         "`budget`); `docs/validation.md` gives its size on the paper run.",
         "",

@@ -48,6 +48,10 @@ SPELLINGS = {
 }
 
 
+# Run-file formats a resume continues: 6 differs from 7 only in holding every diagnostic, which
+# the writer then goes on writing (so a run begun by the version before can still be extended)
+RESUMABLE = (6, FORMAT_VERSION)
+
 # The one scene key a resume may change: the end, before or after the run's (an extension)
 EXTENDABLE = "time.duration"
 
@@ -240,16 +244,18 @@ class Diagnostics:
     at_end = True
     from_sample = True  # can run on a sample taken earlier in the same launch (Simulation._batch)
 
-    def __init__(self, schedule: IterationInterval):
+    def __init__(self, schedule: IterationInterval, effects=None):
         self.schedule = schedule
         self.counters = _Counters()
         self.last: dict | None = None
         self.last_step = -1
+        self.fields = diag.fields(effects)  # the model's own and those of the effects named
+        self.names = tuple(f.name for f in self.fields)
 
     def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
         tot = sim.totals  # fetched with the sample
         c = self.counters
-        row = diag.row(diag.Event(t, s, tot, c, sim.x0_max))  # each field computed as diag.FIELDS declares
+        row = diag.row(diag.Event(t, s, tot, c, sim.x0_max), self.fields)  # each field computed as declared
         if self.schedule(step):  # a row off the grid (at an end) leaves them: a run extended past it goes on as one run
             c.t, c.impulses, c.wall_impulse, c.impulse_sum = t, tot.impulses, tot.wall_impulse, tot.impulse_sum
         self.last, self.last_step = row, step
@@ -385,7 +391,7 @@ class Simulation:
         def every(interval: float) -> IterationInterval:
             return IterationInterval(max(1, round(interval / dt)))
 
-        diagnostics = Diagnostics(every(scene.output.diagnostic_interval))
+        diagnostics = Diagnostics(every(scene.output.diagnostic_interval), scene.effects)
         self.outputs = [
             diagnostics,
             Guard(diagnostics),
@@ -452,7 +458,7 @@ class Simulation:
                 self.out.unlink()
             own = model.owned
             own = {"dims": own.dims(), "constants": own.constants()} if own is not None else None
-            writer = RunWriter(self.out, attrs, model.constants(), dtype, own=own)
+            writer = RunWriter(self.out, attrs, model.constants(), dtype, own=own, diagnostics=self.diagnostics.names)
         self.writer = writer
         self.total_mass = float(model.constants()["mass"].sum())
         # the first launch compiles the kernels, or loads them from Taichi's offline cache: which
@@ -615,7 +621,7 @@ class Simulation:
         ck = self._checkpoint()
         data = read_run(self.out)
         version = int(data["attrs"].get("format_version", 1))
-        if version != FORMAT_VERSION:
+        if version not in RESUMABLE:
             raise RunError(
                 f"--resume: {self.out} is in run-file format {version}, this melange_ti writes {FORMAT_VERSION}: "
                 "continue the run with the version that began it, or start it again"
@@ -679,6 +685,8 @@ class Simulation:
             if o.name in ("snapshots", "diagnostics")
         }
         writer = RunWriter(self.out, dtype=dtype, mode="r+", resume_time=keep, attrs=self._extension)
+        # the diagnostics the file holds: a format-6 file holds every one (0 for an effect not named)
+        self.diagnostics.fields = tuple(f for f in diag.FIELDS if f.name in writer.diagnostic_names)
         return writer, step
 
     def _summary(self, steps: int, wall: float) -> RunSummary:

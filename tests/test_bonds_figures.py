@@ -146,12 +146,22 @@ def test_plot_draws_fragments_for_a_bonded_run_only(bonded, unbonded, tmp_path):
     assert len(labels) == 2 and "bonds" in labels[0] and "τ = 3/2" in labels[1], labels
 
 
-def test_a_run_without_bonds_reports_each_iceberg_its_own_piece(unbonded):
-    """The bonds' diagnostics in a run without the effect: its declared values without it
-    (``Quantity.without``), every iceberg its own piece, no bond, no bond energy."""
-    d = read_run(unbonded)["diagnostics"]
+def test_a_run_without_bonds_holds_no_bond_diagnostics(unbonded):
+    """A run without the bonds effect holds none of its diagnostics (issue 47: they were all
+    zeros); what the budget and readers take in their place is the effect's declared value
+    without it (``Quantity.without``): every iceberg its own piece, no bond, no bond energy."""
+    from melange_ti.energy import total_energy
+    from melange_ti.physics.effects import REGISTRY
+
+    data = read_run(unbonded)
+    d = data["diagnostics"]
     assert d["time"].size > 2
-    assert np.all(d["fragments"] == 6) and np.all(d["bonds_intact"] == 0) and np.all(d["bond_energy"] == 0)
+    assert not {"fragments", "bonds_intact", "bond_energy", "fracture_released"} & set(d)
+    bonds = next(e for e in REGISTRY if e.name == "bonds")
+    snap = {k: v[-1] for k, v in data["snapshots"].items() if k != "time"}
+    without = {q.name: q.without(snap) for q in (*bonds.reports, *bonds.held)}
+    assert without == {"bonds_intact": 0, "fragments": 6, "bond_energy": 0}
+    assert np.array_equal(total_energy(d), d["kinetic_energy"] + d["potential_energy"])
 
 
 def test_fig2_draws_the_bonds_of_a_bonded_run_only(bonded, unbonded):

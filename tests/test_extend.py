@@ -11,6 +11,7 @@ import hashlib
 import os
 import shutil
 import signal
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -251,3 +252,27 @@ def test_a_key_newer_than_the_stored_scene_counts_at_its_default():
     older = "\n".join(line for line in text.splitlines() if not line.startswith("allow_unstable"))
     assert older != text and scene_changes(older, text) == []
     assert scene_changes(older, text.replace("allow_unstable = false", "allow_unstable = true")) == ["time.allow_unstable"]
+
+
+def test_a_run_of_the_format_before_is_extended_bit_for_bit(tmp_path):
+    """``tests/data/format6.h5`` (and its checkpoint, format 7) were written by the commit before
+    run files held only the diagnostics of the effects named (07070fe: a 5-iceberg shelf with
+    friction to t = 2.05). Extended by this version, it goes on in its own format (every
+    diagnostic, 0 for an effect not named) and equals a run made straight to the later time by
+    this version in every dataset they share, bit for bit; a resume of such a checkpoint is the
+    way a user's long run of the version before goes on."""
+    data = Path(__file__).parent / "data"
+    path = tmp_path / "format6.h5"
+    shutil.copy2(data / "format6.h5", path)
+    shutil.copy2(data / "format6.h5.ckpt", checkpoint_path(path))
+    api.extend(path, 4.0)
+    straight = tmp_path / "straight.h5"
+    api.run(scene.loads(stored_scene(path).to_toml()), straight)
+    old, new = datasets(path), datasets(straight)
+    with h5py.File(path, "r") as f:
+        assert f.attrs["format_version"] == 6 and f.attrs["complete"]
+    assert set(new) - {"scene_toml"} <= set(old), sorted(set(new) - set(old))
+    for k in set(new) - {"scene_toml"}:
+        assert old[k].tobytes() == new[k].tobytes(), f"{k} differs from one run straight to t = 4"
+    assert old["diagnostics/time"][-1] == 4.0
+    assert not np.any(old["diagnostics/bond_energy"]) and "bond_energy" not in {k.split("/")[-1] for k in new}

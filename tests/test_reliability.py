@@ -417,7 +417,7 @@ def test_resume_of_a_run_begun_by_an_earlier_version_is_refused(interrupted):
 
     from melange_ti.io.checkpoint import FORMAT_VERSION as CKPT_VERSION
     from melange_ti.io.checkpoint import READABLE
-    from melange_ti.io.hdf5 import FORMAT_VERSION
+    from melange_ti.simulation import RESUMABLE
 
     _interrupted_ok(interrupted, "int")
     d = interrupted["dir"]
@@ -425,11 +425,11 @@ def test_resume_of_a_run_begun_by_an_earlier_version_is_refused(interrupted):
     old.mkdir()
     shutil.copy2(d / "int_as_left.h5", old / "run.h5")
     with h5py.File(old / "run.h5", "r+") as f:
-        f.attrs["format_version"] = FORMAT_VERSION - 1
+        f.attrs["format_version"] = min(RESUMABLE) - 1
     with np.load(d / "int_as_left.h5.ckpt") as z:
         ck = {k: z[k] for k in z.files}
     # (checkpoint's version, what the message names, the version it names)
-    cases = ((min(READABLE) - 1, "checkpoint", min(READABLE) - 1), (CKPT_VERSION, "run-file format", FORMAT_VERSION - 1))
+    cases = ((min(READABLE) - 1, "checkpoint", min(READABLE) - 1), (CKPT_VERSION, "run-file format", min(RESUMABLE) - 1))
     for version, what, named in cases:
         ck["format_version"] = np.asarray(version)
         with open(old / "run.h5.ckpt", "wb") as fh:

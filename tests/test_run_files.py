@@ -111,9 +111,36 @@ def test_every_diagnostic_is_written_and_none_claims_a_future_format(tmp_path):
     run = _run(scene.dumps_toml({**SECTIONS, "shelf": SHELF}), tmp_path, "a")
     data = read_run(run)
     assert data["attrs"]["format_version"] == FORMAT_VERSION
-    assert set(data["diagnostics"]) == {"time", *diagnostics.NAMES}
+    sc = scene.loads(scene.dumps_toml({**SECTIONS, "shelf": SHELF}))
+    assert set(data["diagnostics"]) == {"time", *(f.name for f in diagnostics.fields(sc.effects))}
     assert all(1 <= f.since <= FORMAT_VERSION for f in diagnostics.FIELDS)
     assert diagnostics.required(FORMAT_VERSION) == ("time", *diagnostics.NAMES)
+    assert diagnostics.required(FORMAT_VERSION, sc.effects) == ("time", *(f.name for f in diagnostics.fields(sc.effects)))
+
+
+def test_a_run_holds_the_diagnostics_of_the_effects_it_names(tmp_path):
+    """Issue 47: a run without bonds, waves, friction or added mass wrote their diagnostics as
+    zeros (10 datasets). A run now holds the model's own diagnostics and those of the effects
+    its scene names, and reading, `open_run` and `plot` do without the others; a scene naming
+    friction holds friction_dissipated. The paper's own (SPEC: drag and collisions' ledgers
+    among them) are in every run."""
+    import melange_ti as mt
+    from melange_ti import diagnostics
+    from melange_ti.io.hdf5 import read_run
+
+    paper = _run(scene.dumps_toml({**SECTIONS, "shelf": SHELF}), tmp_path, "paper")
+    rough = {**SECTIONS, "scene": {**SECTIONS["scene"], "effects": [*SECTIONS["scene"]["effects"], "friction"]}}
+    friction = _run(scene.dumps_toml({**rough, "shelf": SHELF}), tmp_path, "rough")
+    held = {p: set(read_run(p)["diagnostics"]) for p in (paper, friction)}
+    owned = {f.name: f.owner for f in diagnostics.FIELDS}
+    assert not {n for n in held[paper] if owned.get(n)}, "a paper run holds no effect's diagnostics"
+    for name in ("bond_energy", "wave_energy", "wave_absorbed", "fragments", "friction_dissipated", "added_mass_work"):
+        assert name not in held[paper]
+    assert {"drag_dissipated", "collision_dissipated", "correction_work", "impulse_offset_work"} <= held[paper]
+    assert held[friction] - held[paper] == {"friction_dissipated"}
+    with mt.open_run(paper) as tree:
+        assert "bond_energy" not in tree["diagnostics"] and "kinetic_energy" in tree["diagnostics"]
+    assert cli.main(["plot", str(paper), str(friction), "--out", str(tmp_path / "figs")]) == 0
 
 
 def test_plot_reads_files_older_than_each_diagnostic(tmp_path):
@@ -126,6 +153,8 @@ def test_plot_reads_files_older_than_each_diagnostic(tmp_path):
     from melange_ti.analysis.runs import load_run
 
     run = _run(scene.dumps_toml({**SECTIONS, "shelf": SHELF}), tmp_path, "a")
+    with h5py.File(run, "r") as h:
+        held = set(h["diagnostics"])
     newer = [f for f in diagnostics.FIELDS if f.since > 1]
     assert {"impulse_offset_work", "contacts"} <= {f.name for f in newer}
     for version in sorted({f.since - 1 for f in newer}):
@@ -133,19 +162,24 @@ def test_plot_reads_files_older_than_each_diagnostic(tmp_path):
         shutil.copy(run, old)
         with h5py.File(old, "r+") as h:
             for f in newer:
-                if f.since > version:
+                if f.since > version and f.name in held:
                     del h["diagnostics"][f.name]
+            # before format 7 every diagnostic was in every file (0 for an effect not named)
+            n = h["diagnostics"]["time"].shape[0]
+            for f in diagnostics.FIELDS:
+                if f.since <= version and f.name not in held and version < diagnostics.OWN_DIAGNOSTICS_SINCE:
+                    h["diagnostics"].create_dataset(f.name, data=np.zeros(n, dtype=f.dtype))
             h.attrs["format_version"] = version
         assert cli.main(["plot", str(old), "--out", str(tmp_path / f"figures_{version}")]) == 0, version
-    for f in newer:
+    for f in [f for f in newer if f.name in held]:
         old = tmp_path / f"without_{f.name}.h5"
         shutil.copy(run, old)
         with h5py.File(old, "r+") as h:
             del h["diagnostics"][f.name]
             h.attrs["format_version"] = f.since - 1
         assert f.name not in load_run(old).data["diagnostics"], f.name
-        with h5py.File(old, "r+") as h:
-            h.attrs["format_version"] = f.since
+        with h5py.File(old, "r+") as h:  # a format that holds it (and holds only the named effects')
+            h.attrs["format_version"] = max(f.since, diagnostics.OWN_DIAGNOSTICS_SINCE)
         with pytest.raises(Exception, match=f"missing {f.name}"):
             load_run(old)
 

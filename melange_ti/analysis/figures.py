@@ -362,7 +362,7 @@ def fig_energy_budget(groups: Sequence[Group], units: Units):
         ax = axes[i // ncol, i % ncol]
         grid, terms = energy_terms(g)
         for name in stats.ENERGY_TERMS:
-            if (name in stats.LEDGER_TERMS or name == "waves") and not np.any(terms[name].mean):
+            if (name in stats.LEDGER_TERMS or name in stats.HELD_TERMS) and not np.any(terms[name].mean):
                 continue  # a ledger that booked nothing (an effect the runs do not name)
             # a ledger added later (an effect's) is drawn with a default style
             label, color, ls, lw = ENERGY_STYLE.get(name, (f"{name} dissipated", None, "-", 1.2))

@@ -67,7 +67,7 @@ def load_run(path: str | Path) -> Run:
     scene = stored_scene(path, data)
     # a diagnostic newer than the file's format is absent from it (the budget counts it 0)
     version = int(data["attrs"].get("format_version", 1))
-    missing = [k for k in diagnostics.required(version) if k not in data["diagnostics"]]
+    missing = [k for k in diagnostics.required(version, scene.effects) if k not in data["diagnostics"]]
     missing += [f"snapshots/{k}" for k in ("time", "x", "z", "theta") if k not in data["snapshots"]]
     missing += [f"icebergs/{k}" for k in ("width", "thickness") if k not in data["icebergs"]]
     if missing:

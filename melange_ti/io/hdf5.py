@@ -34,6 +34,8 @@ from ..physics.data.schema import BODIES
 from ..physics.data.schema import STATE_NAMES as STATE
 from ..physics.effects import REGISTRY
 
+# 7: a run holds only the diagnostics of the effects its scene names (diagnostics.fields: bond_energy,
+# friction_dissipated, wave_energy, ... absent without their effect; older files hold them all, 0);
 # 6: an effect's reports (diagnostics beyond energies), datasets over the icebergs, datasets
 # rewritten with every snapshot, and each effect's own dtype (docs/output.md);
 # 5: the energy an effect holds and its run-wide ledger (0 without it); the datasets and
@@ -44,7 +46,7 @@ from ..physics.effects import REGISTRY
 # 2: self-describing as netCDF-4 (dimension scales, units and long_name on every variable,
 # global attributes); 1: plain HDF5 (still read). A diagnostic added later carries the next
 # version as its ``since``, and the figures read the older files without it.
-FORMAT_VERSION = 6
+FORMAT_VERSION = 7
 SCENE_ATTR = "scene_toml"  # root attribute: the resolved scene, as run (TOML text)
 COMPLETE_ATTR = "complete"  # root attribute: True once the run reached its end
 DIAGNOSTICS = tuple(f.name for f in FIELDS)
@@ -124,8 +126,12 @@ class RunWriter:
         mode: str = "w",
         resume_time: float | dict[str, float] | None = None,
         own: dict | None = None,
+        diagnostics: tuple[str, ...] | None = None,
     ):
         self.path = Path(path)
+        # the diagnostics a new file holds (diagnostics.fields of its scene; default: every one);
+        # a file reopened holds what it was made with
+        self._diag_names = DIAGNOSTICS if diagnostics is None else tuple(diagnostics)
         self.dtype = np.dtype(dtype)
         try:
             if mode == "w":
@@ -145,7 +151,9 @@ class RunWriter:
         self._state = (*STATE, *(d.name for d in DATASETS if d.group == "snapshots" and d.name in self.f["snapshots"]))
         self._updated = {d.name: self.f[d.path] for d in DATASETS if d.updated and d.path in self.f}
         self._snap = {k: self.f["snapshots"][k] for k in ("time", *self._state)}
-        self._diag = {k: self.f["diagnostics"][k] for k in ("time", *DIAGNOSTICS)}
+        if mode != "w":
+            self._diag_names = tuple(k for k in DIAGNOSTICS if k in self.f["diagnostics"])
+        self._diag = {k: self.f["diagnostics"][k] for k in ("time", *self._diag_names)}
         self._nsnap = self._snap["time"].shape[0]
         self._ndiag = self._diag["time"].shape[0]
         # The most one write can allocate (a new chunk of every dataset, plus metadata):
@@ -154,7 +162,12 @@ class RunWriter:
         snap_chunks = sum(
             int(np.prod(ds.chunks)) * ds.dtype.itemsize for k, ds in self._snap.items() if k != "time" and ds.chunks
         )
-        self._room = 2 * (snap_chunks + (len(DIAGNOSTICS) + 2) * 8192) + (64 << 10)
+        self._room = 2 * (snap_chunks + (len(self._diag_names) + 2) * 8192) + (64 << 10)
+
+    @property
+    def diagnostic_names(self) -> tuple[str, ...]:
+        """The diagnostics this file holds (besides ``time``)."""
+        return self._diag_names
 
     def _create(self, attrs: dict, constants: dict[str, np.ndarray], own: dict) -> None:
         f = self.f
@@ -237,7 +250,7 @@ class RunWriter:
         dt_ = d.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(1024,))
         dt_.make_scale("time")
         dt_.attrs.update(meta["diagnostics"]["time"])
-        for k in DIAGNOSTICS:
+        for k in self._diag_names:
             ds = d.create_dataset(
                 k, shape=(0,), maxshape=(None,), dtype=np.int64 if k in DIAG_INT else np.float64, chunks=(1024,)
             )
@@ -304,7 +317,7 @@ class RunWriter:
                     ds[...] = snap[1][name]
             k = self._ndiag
             if m:
-                for name in DIAGNOSTICS:
+                for name in self._diag_names:
                     ds = self._diag[name]
                     ds.resize(k + m, axis=0)
                     ds[k:] = np.array([r[name] for r in self._pending], dtype=ds.dtype)
