@@ -520,3 +520,34 @@ def test_errors_are_one_line(hand_runs, tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("")
     assert "cannot create" in _one_line_error(capsys, ["plot", hand_runs[0], "--out", str(blocker / "sub")])
+
+
+def test_the_snapshot_figure_starts_at_t0_and_names_only_what_it_draws(real_runs, tmp_path):
+    """Issue 47: Fig. 2 left out the start, and its title named collision discs also where it
+    drew none (a polygon's discs are not drawn). Its rows now begin at t = 0; the discs are
+    named where rectangles' are drawn, and not for a run of polygons."""
+    import melange_ti as mt
+    from melange_ti.analysis import figures
+    from melange_ti.analysis.runs import default_times, load_run, make_groups
+
+    assert default_times(8.0)[0][0] == 0.0 and default_times(8000.0)[0] == [0.0, 100.0, 200.0, 300.0, 400.0]
+    tri = [[0.0, 0.0], [1.0, 0.0], [0.5, 0.8]]
+    text = dumps_toml(
+        {
+            "scene": {"name": "polygons", "effects": ["gravity", "buoyancy", "drag"]},
+            "time": {"duration": 4.0},
+            "output": {"snapshot_interval": 1.0},
+            "iceberg": [{"x": 2.0, "z": -0.3, "vertices": tri}, {"x": 4.0, "z": -0.3, "theta": 0.4, "vertices": tri}],
+        }
+    )
+    poly = tmp_path / "poly.h5"
+    mt.run(mt.scene.loads(text), poly)
+    units = figures.Units(width_m=70.0)
+    for path, discs in ((real_runs[0], True), (poly, False)):
+        groups = make_groups([load_run(path)])
+        times = default_times(float(groups[0].runs[0].snaps["time"][-1]))[0]
+        fig = figures.fig_snapshots(groups, units, times)
+        title = fig._suptitle.get_text()
+        assert ("collision discs" in title) == discs, title
+        first = [t.get_text() for t in fig.axes[0].texts]
+        assert "t = 0" in first, first

@@ -274,12 +274,12 @@ def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float],
     width_w = max(c[3] - c[2] for col in windows for c in col)
     zlo, zhi = min(zlo, 0.0) - 0.4, max(zhi, 0.0) + 0.4
     panel_w = 10.0 if ncol == 1 else min(6.0, max(18.0 / ncol, 3.5))  # 6 in up to three groups
-    panel_h = max(1.0, panel_w * (zhi - zlo) / width_w)
+    panel_h = max(1.3, panel_w * (zhi - zlo) / width_w)  # room for the y label "z (widths)"
     fig, axes = plt.subplots(
         nrow, ncol, figsize=(panel_w * ncol + 1.0, panel_h * nrow + 1.4), squeeze=False, layout="constrained"
     )
     mappable = None
-    bonded = False
+    bonded = discs_drawn = False
     for c, (g, col) in enumerate(zip(shown, windows, strict=True)):
         r = g.runs[0]
         w, h = r.data["icebergs"]["width"], r.data["icebergs"]["thickness"]
@@ -299,6 +299,7 @@ def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float],
             )
             art.update(r.snaps["x"][k][sel], r.snaps["z"][k][sel], r.snaps["theta"][k][sel])
             mappable = art.rects
+            discs_drawn |= art.circles is not None  # a polygon's are not drawn
             if faces is not None:  # the bonds effect: the bonds intact then, on the faces they glue
                 x, z, th = r.snaps["x"][k], r.snaps["z"][k], r.snaps["theta"][k]
                 segments = faces.segments(x, z, th, float(r.snaps["time"][k]), keep=sel)
@@ -311,16 +312,15 @@ def fig_snapshots(groups: Sequence[Group], units: Units, times: Sequence[float],
             ax.set_ylabel("z (widths)", fontsize=8)
             ax.tick_params(labelsize=7)
             if row == 0:
-                title = f"{g.label}, seed {r.seed} ({r.scene.contacts.discs} discs)"
+                title = f"{g.label}, seed {r.seed}" + ("" if polygons else f" ({r.scene.contacts.discs} discs)")
                 ax.set_title(textwrap.fill(title, int(13 * panel_w)), fontsize=9)  # ~13 characters an inch
                 length_axis(ax, "x", units, x1, f"x for w = {units.width_m:g} m")
             if row == nrow - 1:
                 ax.set_xlabel("x (widths)")
     phi_colorbar(fig, mappable, axes.ravel().tolist(), shrink=0.8, fraction=0.04)
     bonds = "; cyan: the bonds intact at that time" if bonded else ""
-    fig.suptitle(
-        f"The leading edge of the mélange (icebergs coloured by capsize angle, with their collision discs{bonds})", fontsize=10
-    )
+    discs = ", with their collision discs" if discs_drawn else ""
+    fig.suptitle(f"The leading edge of the mélange (icebergs coloured by capsize angle{discs}{bonds})", fontsize=10)
     return fig
 
 

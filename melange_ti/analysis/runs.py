@@ -154,8 +154,9 @@ def last_snapshot_time(runs: Sequence[Run]) -> float:
 
 
 def default_times(t_end: float) -> tuple[list[float], list[float]]:
-    """Default times for Fig. 2 (the paper's 100..400 when the runs reach them) and Fig. 5."""
-    fig2 = list(PAPER_FIG2_TIMES) if t_end >= PAPER_FIG2_TIMES[-1] else [t_end * f for f in (0.25, 0.5, 0.75, 1.0)]
+    """Default times for Fig. 2 (the start, then the paper's 100..400 when the runs reach
+    them) and Fig. 5."""
+    fig2 = [0.0, *(PAPER_FIG2_TIMES if t_end >= PAPER_FIG2_TIMES[-1] else [t_end * f for f in (0.25, 0.5, 0.75, 1.0)])]
     fig5 = [t_end * f for f in (0.125, 0.25, 0.5, 1.0)]
     return fig2, fig5
 
