@@ -11,11 +11,11 @@ the API from its docstrings.
 from __future__ import annotations
 
 import argparse
-import re
 import dataclasses
 import inspect
 import io
 import os
+import re
 import sys
 from contextlib import redirect_stdout
 from pathlib import Path

@@ -6,7 +6,6 @@ import contextlib
 import io
 import os
 import re
-from pathlib import Path
 
 import taichi as ti
 

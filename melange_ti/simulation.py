@@ -528,8 +528,8 @@ class Simulation:
         self.compiled = seen.kernels > 0
         if self.compiled and self.announce and bar is None:
             print(
-                f"melange-ti: compiled {seen.kernels} kernels in {seen.seconds:.1f} s (Taichi caches them: a later run of this kind loads "
-                "them in about a second)",
+                f"melange-ti: compiled {seen.kernels} kernels in {seen.seconds:.1f} s (Taichi caches them: a later run of "
+                "this kind loads them in about a second)",
                 file=sys.stderr,
                 flush=True,
             )

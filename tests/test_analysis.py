@@ -346,10 +346,9 @@ def test_plot_real_runs(real_runs, tmp_path, capsys):
 
 
 def test_energy_terms_of_a_real_run_come_from_its_datasets(real_runs):
+    from melange_ti.diagnostics import fields
     from melange_ti.io.hdf5 import read_run
     from melange_ti.physics.data.schema import ENERGY_LEDGERS
-
-    from melange_ti.diagnostics import fields
     from melange_ti.scene import stored_scene
 
     d = read_run(real_runs[0])["diagnostics"]

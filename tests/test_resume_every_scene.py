@@ -17,7 +17,6 @@ from __future__ import annotations
 import os
 import signal
 
-import h5py
 import numpy as np
 import pytest
 
@@ -25,6 +24,8 @@ from melange_ti import api, scene
 from melange_ti.errors import Interrupted, RunError
 from melange_ti.io.checkpoint import checkpoint_path
 from melange_ti.simulation import Simulation
+
+from .test_extend import datasets
 
 T1, T2 = 1.27, 3.0  # T1 on neither output grid (0.5, 0.1)
 STOP_STEP = 230  # the Ctrl-C, between two checkpoints (every 0.7)
@@ -61,19 +62,12 @@ SCENES = {
     # polygons in waves: the grid's surface and potential, and the wave step's phase
     "polygons_waves": (
         '[scene]\nname = "waves"\neffects = ["gravity", "buoyancy", "drag", "collisions", "wall", "waves"]\n'
-        "[physics]\nwater_depth = 4.0\nwave_dx = 0.25\nwave_end = 30.0\nwave_sponge = 8.0\n" + COMMON
+        "[physics]\nwater_depth = 4.0\nwave_dx = 0.25\nwave_end = 30.0\nwave_sponge = 8.0\n"
+        + COMMON
         + f"[[iceberg]]\nx = 2.0\nz = -0.3\ntheta = 0.5\nvertices = {PENTAGON}\n"
         "[[iceberg]]\nx = 4.0\nz = -0.55\ntheta = 0.3\nwidth = 1.0\nthickness = 1.4\n"
     ),
 }
-
-
-def datasets(path) -> dict[str, np.ndarray]:
-    out = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
-        out["scene_toml"] = f.attrs["scene_toml"]
-    return out
 
 
 def differing(path, ref: dict) -> list[str]:

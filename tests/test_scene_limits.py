@@ -21,8 +21,8 @@ import melange_ti as mt
 from melange_ti import cli
 from melange_ti import scene as scn
 from melange_ti.energy import budget_series, total_energy
-from melange_ti.io.hdf5 import read_run
 from melange_ti.geometry import potential_energy
+from melange_ti.io.hdf5 import read_run
 from melange_ti.scene import DENSITY_RATIO as R
 from melange_ti.scene.initial import DT_SAFETY, time_step_limit
 from melange_ti.simulation import RESIDUAL_TRUSTED, RunSummary

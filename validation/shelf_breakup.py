@@ -80,7 +80,7 @@ def end_state(path: Path) -> dict:
     return {
         "capsized": float(d["capsized_fraction"][-1]),
         "leading_edge": float(d["leading_edge"][-1]),
-        "fragments": int(d["fragments"][-1]),
+        "fragments": int(d["fragments"][-1]) if "fragments" in d else n,  # without bonds: each iceberg its own piece
         "bonds_intact": float(bonds[-1] / bonds[0]) if bonds is not None and bonds[0] > 0 else "",
         "released": float(budget["released"][-1]),
         "residual": float(budget["residual"][-1]),

@@ -378,7 +378,9 @@ def fig_energy_budget(groups: Sequence[Group], units: Units):
         if budget_verdict(terms["residual"].mean, terms["released"].mean, dissipated, grid):  # plainly, on the figure
             k = int(np.nanargmax(np.abs(terms["residual"].mean)))
             top = float(np.nanmax(np.abs(terms["released"].mean)))
-            share = f"{terms['residual'].mean[k] / top:.1%} of the largest released" if top else f"{terms['residual'].mean[k]:.3g}"
+            share = (
+                f"{terms['residual'].mean[k] / top:.1%} of the largest released" if top else f"{terms['residual'].mean[k]:.3g}"
+            )
             title += f"\nTHE BUDGET DOES NOT CLOSE: residual {share} at t = {grid[k]:g} (time step too long?)"
         ax.set_title(title, fontsize=9, color="black")
         if "DOES NOT CLOSE" in title:
