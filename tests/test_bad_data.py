@@ -40,10 +40,18 @@ def corrupt(src, dst, name: str, value: float = np.nan, index=(-1,)):
 
 
 def variant(src, dst, overrides):
-    """A copy of ``src`` whose stored scene has ``overrides`` (the data are ``src``'s)."""
+    """A copy of ``src`` whose stored scene has ``overrides`` (the data are ``src``'s; the
+    diagnostics of an effect the overrides add, which a real run of it would hold, as zeros)."""
+    from melange_ti.diagnostics import fields
+
     shutil.copy(src, dst)
     with h5py.File(dst, "r+") as f:
-        f.attrs["scene_toml"] = loads(f.attrs["scene_toml"], overrides, geometry=False).to_toml()
+        sc = loads(f.attrs["scene_toml"], overrides, geometry=False)
+        f.attrs["scene_toml"] = sc.to_toml()
+        g = f["diagnostics"]
+        for field in fields(sc.effects):
+            if field.name not in g:
+                g.create_dataset(field.name, data=np.zeros(g["time"].shape[0], dtype=field.dtype))
     return dst
 
 

@@ -34,8 +34,8 @@ from ..physics.data.schema import BODIES
 from ..physics.data.schema import STATE_NAMES as STATE
 from ..physics.effects import REGISTRY
 
-# 7: a run holds only the diagnostics of the effects its scene names (diagnostics.fields: bond_energy,
-# friction_dissipated, wave_energy, ... absent without their effect; older files hold them all, 0);
+# 7: a run holds only the diagnostics of the effects its scene names (diagnostics.fields: an effect's
+# energies, ledgers and reports absent without it; older files hold them all, 0);
 # 6: an effect's reports (diagnostics beyond energies), datasets over the icebergs, datasets
 # rewritten with every snapshot, and each effect's own dtype (docs/output.md);
 # 5: the energy an effect holds and its run-wide ledger (0 without it); the datasets and
