@@ -135,19 +135,59 @@ def contact_matrix(n: np.ndarray, arms: Iterable[tuple[np.ndarray, float, float]
     return k
 
 
-def coulomb_impulse(k: np.ndarray, vn: float, vt: float, e: float, mu: float) -> tuple[float, float, str]:
+def newton_coulomb(k: np.ndarray, vn: float, vt: float, e: float, mu: float) -> tuple[float, float, str]:
     """``(J_n, J_t, regime)``: Newton's restitution with Coulomb friction at a contact point
     whose relative velocity ``(v_n, v_t)`` (approaching: ``v_n < 0``) changes by ``K J``.
 
     Stick: the impulse giving ``v_n' = -e v_n`` and ``v_t' = 0``, if ``|J_t| <= mu J_n``.
     Else slide on the cone's edge on the stick impulse's side, ``J_t = s mu J_n``, with
-    ``J_n`` again from ``v_n' = -e v_n``."""
+    ``J_n`` again from ``v_n' = -e v_n``. It can create energy (:func:`kept_restitution`)."""
     jn, jt = np.linalg.solve(k, [-(1.0 + e) * vn, -vt])
     if abs(jt) <= mu * jn:
         return float(jn), float(jt), "stick"
     side = float(np.sign(jt))
     jn = -(1.0 + e) * vn / (k[0, 0] + side * mu * k[0, 1])
     return float(jn), float(side * mu * jn), "slide"
+
+
+def impact_gain(k: np.ndarray, vn: float, vt: float, jn: float, jt: float) -> float:
+    """Kinetic energy the impulse ``(J_n, J_t)`` gives a pair: ``J . u + J . K J / 2``."""
+    j = np.array([jn, jt])
+    return float(j @ np.array([vn, vt]) + 0.5 * j @ k @ j)
+
+
+def kept_restitution(k: np.ndarray, vn: float, vt: float, e: float, mu: float) -> float:
+    """The restitution an impact keeps (docs/model.md, "An impact never creates energy"): ``e``
+    where Newton's law with the cone creates no kinetic energy, else the largest ``e' < e`` at
+    which it creates none, in closed form per regime. Sticking, the gain is
+    ``(e'^2 M_nn v_n^2 - u . M u) / 2`` with ``M = K^-1``, zero at
+    ``e' = sqrt(u . M u / (M_nn v_n^2))``; sliding on side ``s`` (``d = (1, s mu)``) it is
+    ``J_n (d . u) + J_n^2 (d . K d) / 2``, zero at ``J_n = -2 (d . u) / (d . K d)``, that is
+    ``e' = -J_n (K_nn + s mu K_nt) / v_n - 1``. The gain grows with ``e'``, so the root whose
+    regime is the law's own there is the one."""
+    jn, jt, _ = newton_coulomb(k, vn, vt, e, mu)
+    if impact_gain(k, vn, vt, jn, jt) <= 0.0:
+        return e
+    u = np.array([vn, vt])
+    m = np.linalg.inv(k)
+    roots = [(float(np.sqrt(u @ m @ u / (m[0, 0] * vn * vn))), "stick", 0.0)]
+    for side in (1.0, -1.0):
+        d = np.array([1.0, side * mu])
+        star = -2.0 * (d @ u) / (d @ k @ d)
+        roots.append((float(-star * (k[0, 0] + side * mu * k[0, 1]) / vn - 1.0), "slide", side))
+    for kept, regime, side in roots:
+        if -1e-12 <= kept <= e:
+            jn, jt, got = newton_coulomb(k, vn, vt, max(kept, 0.0), mu)
+            if got == regime and (regime == "stick" or np.sign(jt) == side):
+                return max(kept, 0.0)
+    return 0.0
+
+
+def coulomb_impulse(k: np.ndarray, vn: float, vt: float, e: float, mu: float) -> tuple[float, float, str]:
+    """``(J_n, J_t, regime)`` of the model's impact law with friction: :func:`newton_coulomb` at
+    the restitution the impact keeps (:func:`kept_restitution`), so that it never creates
+    kinetic energy; ``v_n' = -e' v_n``."""
+    return newton_coulomb(k, vn, vt, kept_restitution(k, vn, vt, e, mu), mu)
 
 
 # ---------------------------------------------------------------- floating stability, in numpy

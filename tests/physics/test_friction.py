@@ -24,7 +24,17 @@ from melange_ti import scene as scene_mod
 from melange_ti.model import Model
 from melange_ti.physics.data.schema import ENERGY_LEDGERS
 from melange_ti.scene import DENSITY_RATIO
-from melange_ti.testing import contact_matrix, contacts_seen, corner_x, coulomb_impulse, first_impulse, kinetic
+from melange_ti.testing import (
+    contact_matrix,
+    contacts_seen,
+    corner_x,
+    coulomb_impulse,
+    first_impulse,
+    impact_gain,
+    kept_restitution,
+    kinetic,
+    newton_coulomb,
+)
 
 from .scenes import KERNEL_FORMS, initial, make_scene
 
@@ -118,7 +128,7 @@ def test_zero_friction_is_frictionless_and_no_effect_costs_no_column():
         assert w1 == w0 + 1
 
 
-def pair_model(friction=MU):
+def pair_model(friction=MU, restitution=0.5):
     """Two blocks side by side (mass ratios 1 and 10), far apart from each other and from the wall."""
     light = {1: (1.0, 1.4), 10: (0.2, 0.7)}
     bergs = []
@@ -127,7 +137,7 @@ def pair_model(friction=MU):
         x, z = 137.0 + 100.0 * k, -40.0 + 25.0 * k
         bergs.append({"x": x, "z": z, "width": W, "thickness": H})
         bergs.append({"x": x + 0.5 + wl / 2 + 0.01, "z": z, "width": wl, "thickness": hl})
-    physics = {"restitution": 0.5, "density_ratio": R, "friction": friction}
+    physics = {"restitution": restitution, "density_ratio": R, "friction": friction}
     sc = make_scene(["collisions", "friction"], bergs, physics, contacts={"discs": DISCS})
     return Model(sc), sc
 
@@ -217,7 +227,8 @@ def impulse_against_the_law(m, b, a, e, moving):
         np.testing.assert_allclose(
             spin, sign * (r[0] * p[1] - r[1] * p[0]), rtol=0, atol=1e-12 * scale, err_msg=f"body {q}: spin"
         )
-    assert u_after @ n == pytest.approx(-e * (u @ n), rel=1e-11), "v_n' = -e v_n in both regimes"
+    kept = kept_restitution(kk, u @ n, u @ t, e, MU)  # e, unless Newton's law would create energy
+    assert u_after @ n == pytest.approx(-kept * (u @ n), rel=1e-11), "v_n' = -e' v_n in both regimes"
     if regime == "stick":
         assert abs(u_after @ t) < 1e-11 * np.abs(u).max()
     else:
@@ -355,3 +366,90 @@ def test_friction_key_is_checked():
     with pytest.raises(scene_mod.SceneError, match="friction acts at contacts"):
         scene_mod.load(None, overrides=[("scene.effects", ["gravity", "buoyancy", "friction"])])
     assert scene_mod.load(None, overrides=[("scene.effects", ["wall", "friction"])]).effects.friction
+
+
+# ----------------------------------------------------------------------------- no impact creates energy
+TRIANGLE = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 0.8]])
+
+
+def _sweep_impacts(m, sc, place, e, cases, moving):
+    """Each case placed (``place(state, case)``), stepped to its first impulse: the kinetic
+    energy it removes (no force acts: the step's change is the impulses'), the restitution it
+    kept against :func:`kept_restitution`, and what Newton's law with the cone would have given
+    the same contact (its gain > 0: a case today's law fails). Returns (lost, Newton's gain, scale)."""
+    k = m.constants()
+    out = []
+    for case in cases:
+        s = initial(sc)
+        place(s, case)
+        m.set_state(s)
+        b, a, tb, ta = first_impulse(m)
+        lost = kinetic(b, moving, k["mass"], k["inertia"]) - kinetic(a, moving, k["mass"], k["inertia"])
+        regime, jn, jt, vn, vt, vn_after, vt_after, kk = impulse_against_the_law(m, b, a, e, moving=set(moving))
+        booked_exactly(b, a, tb, ta, moving, k["mass"], k["inertia"], jn, jt, vn, vt, vn_after, vt_after)
+        newton = impact_gain(kk, vn, vt, *newton_coulomb(kk, vn, vt, e, MU)[:2])
+        out.append((lost, newton, 0.5 * (vn * vn + vt * vt) / kk[0, 0]))
+    return out
+
+
+@pytest.mark.parametrize("e", [0.5, 0.85, 0.9, 1.0])
+def test_no_impact_of_a_rectangle_or_a_polygon_on_the_wall_creates_energy(e):
+    """Issue 49: Newton's restitution with Coulomb's cone gained up to 16.6% of the kinetic
+    energy at e = 1 (a 1 x 1.4 block's corner into the wall, mu = 0.3). Swept over tilts (the
+    worst K_nt among them) and sliding speeds either way, a rectangle's and a triangle's
+    corner: no impact gains kinetic energy, every impulse is the law's at the restitution it
+    keeps (e, or the largest e' that creates none), the ledgers book it exactly; and at
+    e >= 0.85 the sweep holds impacts where Newton's law would have gained (today's law failed
+    them)."""
+    tilts = (0.15, 0.4, 0.7, 1.0, 1.3)
+    speeds = (-3.0, -1.0, -0.3, 0.0, 0.3, 1.0, 3.0)
+    results = []
+    m, sc = wall_model(e, MU)
+
+    def block(s, case):
+        theta, vz = case
+        s["theta"][0], s["vx"][0], s["vz"][0] = theta, -1.0, vz
+        s["x"][0] = WALL_X + corner_x(W, H, theta) + 0.02
+
+    results += _sweep_impacts(m, sc, block, e, [(t, v) for t in tilts for v in speeds], (0,))
+    physics = {"restitution": e, "density_ratio": R, "wall_x": WALL_X, "friction": MU}
+    tri = make_scene(["collisions", "wall", "friction"], [{"x": WALL_X + 2.0, "z": 3.0, "vertices": TRIANGLE.tolist()}], physics)
+    mt = Model(tri)
+    body = np.stack([mt.constants()["corner_u"][0], mt.constants()["corner_v"][0]], 1)[: int(mt.constants()["corners"][0])]
+
+    def triangle(s, case):
+        theta, vz = case
+        c, sn = np.cos(theta), np.sin(theta)
+        s["theta"][0], s["vx"][0], s["vz"][0] = theta, -1.0, vz
+        s["x"][0] = WALL_X - float(np.min(body[:, 0] * c - body[:, 1] * sn)) + 0.02
+
+    results += _sweep_impacts(mt, tri, triangle, e, [(t, v) for t in (0.3, 1.1, 2.0, 2.9, 4.0, 5.2) for v in speeds], (0,))
+    lost, newton, scale = (np.array(x) for x in zip(*results, strict=True))
+    assert np.all(lost >= -1e-12 * scale), f"an impact created {np.max(-lost / scale):.3g} of its scale"
+    if e >= 0.85:
+        assert np.any(newton > 1e-6 * scale), "the sweep must hold impacts Newton's law makes gain energy"
+    gained = newton > 1e-9 * scale
+    assert np.all(lost[gained] <= 1e-9 * scale[gained]), "where Newton's law gains, the kept restitution's gains nothing"
+
+
+@pytest.mark.parametrize("ratio", [1, 10])
+def test_no_impact_between_icebergs_creates_energy(ratio):
+    """The same between two blocks, a tilted corner into an upright face (mass ratios 1 and
+    10), at e = 1: momentum is kept as before and no impact gains kinetic energy."""
+    m, sc = pair_model(restitution=1.0)
+    k = m.constants()
+    mass = k["mass"]
+    i, j = (0, 1) if ratio == 1 else (2, 3)
+    wj, hj = k["width"][j], k["thickness"][j]
+
+    def place(s, case):
+        theta, slide = case
+        s["theta"][j] = theta
+        s["x"][j] = s["x"][i] + 0.5 * W + corner_x(wj, hj, theta) + 0.02
+        share = mass[j] / (mass[i] + mass[j])
+        s["vx"][i], s["vx"][j] = 2.0 * share, -2.0 * (1.0 - share)
+        s["vz"][i], s["vz"][j] = slide * share, -slide * (1.0 - share)
+
+    cases = [(t, v) for t in (0.2, 0.4, 0.6) for v in (-3.0, -0.4, 0.1, 0.5, 3.0)]
+    lost, newton, scale = (np.array(x) for x in zip(*_sweep_impacts(m, sc, place, 1.0, cases, (i, j)), strict=True))
+    assert np.all(lost >= -1e-12 * scale * mass[i]), lost

@@ -7,6 +7,33 @@ from ...data.schema import Body, Param
 from ...step.impulses import pair_mass, relative_normal
 
 
+# Bisection steps for the restitution an impact may keep without creating energy (the kinetic
+# energy change is monotone in it: docs/model.md, "An impact never creates energy"); 60 halvings
+# of [0, e] leave e' to within 1e-18
+PROJECTION_STEPS = 60
+
+
+@ti.func
+def coulomb(vn, vt, e, knn, knt, ktt, mu):
+    """``(J_n, J_t)`` of Newton's restitution ``e`` with Coulomb's cone at a contact point whose
+    relative velocity ``(v_n, v_t)`` changes by ``K J`` (docs/model.md, Friction)."""
+    dvn = -(1.0 + e) * vn  # the normal velocity change restitution asks for
+    # stick: K P = (dvn, -v_t), solved through the tangential Schur complement (> 0: K is positive definite)
+    jt = -(vt + knt * dvn / knn) / (ktt - knt * knt / knn)
+    jn = (dvn - knt * jt) / knn
+    if ti.abs(jt) > mu * jn:  # outside the cone: slide on its edge on jt's side (mu = 0: the frictionless J_n)
+        side = 1.0 if jt > 0 else -1.0
+        jn = dvn / (knn + side * mu * knt)  # > 0 here: the stick impulse lies outside the cone on this side
+        jt = side * mu * jn
+    return jn, jt
+
+
+@ti.func
+def gain(jn, jt, vn, vt, knn, knt, ktt):
+    """The kinetic energy the impulse ``(J_n, J_t)`` gives the pair: ``J . u + J . K J / 2``."""
+    return jn * vn + jt * vt + 0.5 * (knn * jn * jn + 2.0 * knt * jn * jt + ktt * jt * jt)
+
+
 @ti.func
 def impulse(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, knn, m1, i1, c1n, m2, i2, c2n, kick_vn):
     """The impulse ``P = J_n n + J_t t`` of Newton's restitution with Coulomb friction
@@ -27,14 +54,27 @@ def impulse(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, n
         knt += c2n * c2t / i2
     vt = relative_normal(a, i, j, Body.VX, Body.VZ, Body.OM, rx1, rz1, rx2, rz2, tx, tz)
     mu = a.par[Param.FRICTION]
-    dvn = -(1.0 + e) * vn  # the normal velocity change restitution asks for
-    # stick: K P = (dvn, -v_t), solved through the tangential Schur complement (> 0: K is positive definite)
-    jt = -(vt + knt * dvn / knn) / (ktt - knt * knt / knn)
-    jn = (dvn - knt * jt) / knn
-    if ti.abs(jt) > mu * jn:  # outside the cone: slide on its edge on jt's side (mu = 0: the frictionless J_n)
-        side = 1.0 if jt > 0 else -1.0
-        jn = dvn / (knn + side * mu * knt)  # > 0 here: the stick impulse lies outside the cone on this side
-        jt = side * mu * jn
+    jn, jt = coulomb(vn, vt, e, knn, knt, ktt, mu)
+    kept = e  # the restitution the impulse keeps
+    if gain(jn, jt, vn, vt, knn, knt, ktt) > 0.0:
+        # Newton's restitution with the cone would create energy (an off-centre contact that
+        # sticks, e near 1): the largest e' <= e whose impulse does not (docs/model.md, "An impact
+        # never creates energy"); the gain grows with e', so bisection finds it
+        lo = 0.0 * e
+        hi = e
+        for _ in range(PROJECTION_STEPS):
+            mid = 0.5 * (lo + hi)
+            tn, tt = coulomb(vn, vt, mid, knn, knt, ktt, mu)
+            if gain(tn, tt, vn, vt, knn, knt, ktt) > 0.0:
+                hi = mid
+            else:
+                lo = mid
+        kept = lo
+        jn, jt = coulomb(vn, vt, lo, knn, knt, ktt, mu)
+        if gain(jn, jt, vn, vt, knn, knt, ktt) > 0.0:  # (not met) the plastic impulse without friction, dissipative
+            kept = 0.0 * e
+            jn = -vn / knn
+            jt = 0.0 * e
     px = jn * nx + jt * tx
     pz = jn * nz + jt * tz
     b = ti.static(a.b)
@@ -49,6 +89,6 @@ def impulse(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, n
     vt_after = vt + knt * jn + ktt * jt
     collision = -0.5 * jn * (vn + vn_after)
     if jt == 0.0:  # the frictionless impulse (mu = 0, or no sliding to stop): its ledger's bits too
-        collision = 0.5 * (1.0 - e * e) * vn * vn / knn
+        collision = 0.5 * (1.0 - kept * kept) * vn * vn / knn
     kick_vt = relative_normal(a, i, j, Body.KICK_VX, Body.KICK_VZ, Body.KICK_OM, rx1, rz1, rx2, rz2, tx, tz)
     return jn, ti.Vector([collision, 0.5 * jn * kick_vn + 0.5 * jt * kick_vt, -0.5 * jt * (vt + vt_after)])
