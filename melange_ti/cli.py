@@ -82,13 +82,40 @@ def build_parser() -> argparse.ArgumentParser:
         help="override a scene key (scene.effects+=NAME / -=NAME add or remove one effect)",
     )
 
-    e = sub.add_parser("ensemble", help="seeds x parameter values on a Dask cluster, one file per run")
+    e = sub.add_parser(
+        "ensemble",
+        help="seeds x parameter values on a Dask cluster, one file per run",
+        description="Run seeds 1..K of a scene for every combination of the values listed with --set, one HDF5 "
+        "file per run in --out (named by the swept values and the seed, e.g. discs=12_seed3.h5), on a local Dask "
+        "cluster (or --scheduler). Keys can move together instead of through every combination: --set "
+        "physics.tensile_strength,physics.shear_strength=0.1,0.2 gives both keys each value at once (2 runs per "
+        "seed), and --zip KEY1,KEY2 pairs the i-th values of the keys' own --set lists of equal length. Finished "
+        "runs in --out are skipped and unfinished ones resumed. However the command ends (done, an error, Ctrl-C, "
+        "SIGTERM), its local cluster stops with it (a second Ctrl-C or SIGTERM kills the workers at once). Exit "
+        "status: 0 done; 2 bad input (nothing run); 3 a run failed (the others finish); 130 Ctrl-C and 143 SIGTERM "
+        "(the finished runs kept: the same command again resumes the rest).",
+    )
     e.add_argument("scene", nargs="?", help=SCENE_HELP)
     e.add_argument("--seeds", type=int, required=True, help="run seeds 1..K")
     e.add_argument("--out", required=True, help="output directory")
     e.add_argument("--workers", type=int, help="local worker processes (default: CPU count)")
     e.add_argument("--scheduler", help="address of an existing Dask scheduler")
-    e.add_argument("--set", action="append", metavar="KEY=V1,V2,...", default=[], help="override; comma lists are swept")
+    e.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=V1,V2,...",
+        default=[],
+        help="override; a comma list is swept (every combination with the other swept keys); "
+        "KEY1,KEY2=V1,V2,... gives the listed keys each value together; scene.effects+=NAME adds an effect",
+    )
+    e.add_argument(
+        "--zip",
+        action="append",
+        metavar="KEY1,KEY2,...",
+        default=[],
+        help="keys given with --set lists of equal length that move together: the i-th values go into one run "
+        "(repeat for another group)",
+    )
     e.add_argument(
         "--arch", choices=("cpu", "gpu", "cuda", "vulkan"), default="cpu", help="Taichi backend of every worker (as for run)"
     )

@@ -4,6 +4,9 @@ Plan, validate, then run:
 
 1. ``--set KEY=V1,V2,...`` lists are swept (Cartesian product over all listed keys, in the
    order given), a value without a top-level comma is a plain override; seeds are 1..K.
+   Keys can move together instead: ``--set K1,K2=V1,V2,...`` gives the listed keys each
+   value at once, and ``--zip K1,K2`` pairs the i-th values of their own ``--set`` lists
+   (of equal length); a group is one factor of the product (:func:`plan`).
    Every run's scene (overrides plus ``time.seed``) is validated before anything starts, and
    existing files in DIR are classified: finished (the file's ``complete`` attribute) -> skipped;
    unfinished with a checkpoint -> resumed; unfinished without one (or unreadable) ->
@@ -22,6 +25,10 @@ Plan, validate, then run:
    ``melange-ti run`` of the same scene and seed (results do not depend on thread count).
 4. A failed run does not stop the others: each failure is printed as one line at the end
    and the exit status is 3; otherwise 0.
+5. However the command ends (done, an error, Ctrl-C, SIGTERM), the local cluster is shut
+   down and its worker processes are gone (:class:`_Stopping`, :func:`_reap`); Ctrl-C exits
+   with 130 and SIGTERM with 143, the manifest rewritten, the finished runs kept and the
+   unfinished ones left to resume from their checkpoints.
 """
 
 from __future__ import annotations
@@ -35,6 +42,7 @@ import logging
 import math
 import os
 import re
+import signal
 import sys
 import threading
 import time as wallclock
@@ -49,6 +57,7 @@ from . import scene as scn
 
 MANIFEST = "ensemble.json"
 EXIT_OK, EXIT_FAILED = 0, 3
+EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # 128 + SIGINT, 128 + SIGTERM, as a shell reports them
 SEED_KEY = "time.seed"
 CONNECT_SECONDS = 5  # --scheduler: how long to wait for it (Dask's default: 30 s)
 
@@ -56,11 +65,16 @@ CONNECT_SECONDS = 5  # --scheduler: how long to wait for it (Dask's default: 30 
 # ---------------------------------------------------------------------------- planning
 @dataclass(frozen=True)
 class Axis:
-    """One ``--set`` key and its values (one value: a plain override)."""
+    """One ``--set`` key and its values (one value: a plain override).
+
+    ``together``: the keys (in ``--set`` order, this one among them) whose i-th values go
+    into one run, from ``--set K1,K2=...`` or ``--zip K1,K2``; empty when the key varies on
+    its own (every combination with the other keys)."""
 
     key: str
     values: tuple
     texts: tuple[str, ...]
+    together: tuple[str, ...] = ()
 
     @property
     def swept(self) -> bool:
@@ -114,30 +128,85 @@ def split_values(text: str) -> list[str]:
     return [p.strip() for p in parts]
 
 
-def parse_sweep(items: list[str] | None) -> list[Axis]:
-    """``["contacts.discs=12,28", "time.dt=0.005"]`` -> one :class:`Axis` per key."""
+def parse_sweep(items: list[str] | None, zips: list[str] | None = None) -> list[Axis]:
+    """``--set`` and ``--zip`` -> one :class:`Axis` per key, in ``--set`` order.
+
+    ``"contacts.discs=12,28"``: a key and its values (one value: a plain override).
+    ``"physics.tensile_strength,physics.shear_strength=0.1,0.2"``: the listed keys take each
+    value together. ``zips`` (``--zip K1,K2,...``): keys given with ``--set`` lists of equal
+    length whose i-th values go together. Every other swept key varies on its own.
+    """
     axes: list[Axis] = []
     seen: set[str] = set()
+    groups: list[tuple[str, tuple[str, ...]]] = []  # (what the user wrote, keys moving together)
+    given = []  # (what the user wrote, its keys, values and their texts)
     for item in items or []:
         if "=" not in item:
             raise scn.SceneError(f"--set {item!r}: expected SECTION.KEY=VALUE or SECTION.KEY=V1,V2,...")
-        key, text = item.split("=", 1)
-        key = key.strip()
-        if key == SEED_KEY:
-            raise scn.SceneError(f"--set {item!r}: {SEED_KEY} is set by --seeds (runs use seeds 1..K)")
-        if key in seen:
-            raise scn.SceneError(f"--set {item!r}: {key} is given more than once (list its values in one --set)")
-        seen.add(key)
+        head, text = item.split("=", 1)
+        keys = [k.strip() for k in head.split(",")]
+        if any(not k for k in keys):
+            raise scn.SceneError(f"--set {item!r}: empty key in {head.strip()!r} (keys that move together: K1,K2=V1,V2,...)")
+        for key in keys:
+            if key == SEED_KEY:
+                raise scn.SceneError(f"--set {item!r}: {SEED_KEY} is set by --seeds (runs use seeds 1..K)")
+            if key in seen:
+                raise scn.SceneError(f"--set {item!r}: {key} is given more than once (list its values in one --set)")
+            seen.add(key)
         texts = split_values(text.strip())
         if len(texts) > 1 and any(t == "" for t in texts):
             raise scn.SceneError(f"--set {item!r}: empty value in the list")
         values = tuple(scn.parse_value(t) for t in texts)
-        for a in range(len(values)):
-            for b in range(a):
-                if _same(values[a], values[b]):
-                    raise scn.SceneError(f"--set {item!r}: value {texts[a]} is listed twice")
-        axes.append(Axis(key, values, tuple(texts)))
-    return axes
+        given.append((f"--set {item!r}", keys, values, texts))
+        axes.extend(Axis(key, values, tuple(texts)) for key in keys)
+        if len(keys) > 1:
+            groups.append((f"--set {item!r}", tuple(keys)))
+    by_key = {a.key: a for a in axes}
+    for item in zips or []:
+        where = f"--zip {item!r}"
+        keys = [k.strip() for k in item.split(",")]
+        if len(keys) < 2 or any(not k for k in keys):
+            raise scn.SceneError(
+                f"{where}: name two or more keys given with --set, e.g. --zip physics.tensile_strength,physics.shear_strength"
+            )
+        for i, key in enumerate(keys):
+            if key in keys[:i]:
+                raise scn.SceneError(f"{where}: {key} is named twice")
+            if key not in by_key:
+                hint = " (the seeds are --seeds)" if key == SEED_KEY else f" (give its values with --set {key}=V1,V2,...)"
+                raise scn.SceneError(f"{where}: {key} is not given with --set{hint}")
+            other = next((g for _, g in groups if key in g), None)
+            if other is not None:
+                raise scn.SceneError(
+                    f"{where}: {key} already moves with {', '.join(k for k in other if k != key)} (a key is in one group)"
+                )
+        counts = [len(by_key[k].values) for k in keys]
+        if len(set(counts)) > 1:
+            sizes = ", ".join(f"{k} has {n} value{'s' if n != 1 else ''}" for k, n in zip(keys, counts, strict=True))
+            raise scn.SceneError(f"{where}: {sizes}; keys that move together need lists of equal length")
+        rows = list(zip(*(by_key[k].values for k in keys), strict=True))
+        labels = [
+            ", ".join(f"{k}={t}" for k, t in zip(keys, row, strict=True))
+            for row in zip(*(by_key[k].texts for k in keys), strict=True)
+        ]
+        _distinct(where, rows, labels)
+        groups.append((where, tuple(keys)))
+    zipped = {k for where, g in groups if where.startswith("--zip") for k in g}
+    for where, keys, values, texts in given:  # a key in a --zip may repeat a value (its rows differ)
+        if not zipped.intersection(keys):
+            _distinct(where, [(v,) for v in values], texts)
+    order = {a.key: i for i, a in enumerate(axes)}
+    together = {k: tuple(sorted(g, key=order.__getitem__)) for _, g in groups for k in g}
+    return [Axis(a.key, a.values, a.texts, together.get(a.key, ())) for a in axes]
+
+
+def _distinct(where: str, rows: list[tuple], labels: list[str]) -> None:
+    """Refuse a value (or a row of values moving together) listed twice."""
+    for a in range(len(rows)):
+        for b in range(a):
+            if all(_same(x, y) for x, y in zip(rows[a], rows[b], strict=True)):
+                what = f"value {labels[a]}" if len(rows[a]) == 1 else f"row {a + 1} ({labels[a]})"
+                raise scn.SceneError(f"{where}: {what} is listed twice")
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -170,35 +239,78 @@ def _sanitize(text: str, limit: int = 40) -> str:
 
 
 def _labels(axes: list[Axis]) -> dict[str, tuple[str, list[str]]]:
-    """For each swept key: its label in file names and one token per value (unique)."""
+    """For each swept key: its label in file names and one token per value (one token per
+    distinct value: a key moving with others may repeat a value)."""
     swept = [a for a in axes if a.swept]
     leaves = [a.key.split(".")[-1] for a in swept]
     out = {}
     for axis, leaf in zip(swept, leaves, strict=True):
         label = _sanitize(leaf if leaves.count(leaf) == 1 else axis.key)
         tokens = [_sanitize(_token(v)) for v in axis.values]
-        if len(set(tokens)) < len(tokens):  # distinct values, same sanitised text
+        n = len(tokens)
+        if any(tokens[a] == tokens[b] and not _same(axis.values[a], axis.values[b]) for a in range(n) for b in range(a)):
             digests = [hashlib.sha1(_json_value(v).encode()).hexdigest()[:6] for v in axis.values]
             tokens = [f"{t}~{d}" for t, d in zip(tokens, digests, strict=True)]
         out[axis.key] = (label, tokens)
     return out
 
 
+def dimensions(axes: list[Axis]) -> list[list[Axis]]:
+    """The axes grouped into what the product runs over: a key on its own, or the keys
+    moving together; each at its first key's place in ``--set`` order."""
+    dims, placed = [], set()
+    for a in axes:
+        if a.key not in placed:
+            dim = [b for b in axes if b.key in a.together] if a.together else [a]
+            placed.update(b.key for b in dim)
+            dims.append(dim)
+    return dims
+
+
 def plan(axes: list[Axis], seeds: int) -> list[RunSpec]:
-    """Every (swept values, seed) combination, swept keys outermost in --set order."""
+    """Every combination of the swept keys (keys moving together take their i-th values in
+    one run), outermost first in ``--set`` order, then the seeds. A file is named by every
+    swept key's value in ``--set`` order, then the seed."""
     labels = _labels(axes)
-    choices = [list(enumerate(a.values)) for a in axes]
+    dims = dimensions(axes)
     runs = []
-    for combo in itertools.product(*choices):
-        overrides = [(a.key, v) for a, (_, v) in zip(axes, combo, strict=True)]
-        swept = [(a.key, v) for a, (_, v) in zip(axes, combo, strict=True) if a.swept]
-        stem = "_".join(f"{labels[a.key][0]}={labels[a.key][1][k]}" for a, (k, _) in zip(axes, combo, strict=True) if a.swept)
+    for combo in itertools.product(*(range(len(dim[0].values)) for dim in dims)):
+        at = {a.key: k for dim, k in zip(dims, combo, strict=True) for a in dim}
+        overrides = [(a.key, a.values[at[a.key]]) for a in axes]
+        swept = [(a.key, a.values[at[a.key]]) for a in axes if a.swept]
+        stem = "_".join(f"{labels[a.key][0]}={labels[a.key][1][at[a.key]]}" for a in axes if a.swept)
         for seed in range(1, seeds + 1):
             name = f"{stem}_seed{seed}.h5" if stem else f"seed{seed}.h5"
             runs.append(RunSpec(file=name, seed=seed, overrides=overrides, swept=swept))
     if len({r.file for r in runs}) != len(runs):  # cannot happen with the labels above; never overwrite a twin
         raise scn.SceneError("--set: the swept values do not give distinct file names")
     return runs
+
+
+def describe(axes: list[Axis], seeds: int, most: int = 6) -> str:
+    """The plan in a few words: ``contacts.discs = 12, 28 x seeds 1-8``; keys moving together
+    as ``a = b = 0.1, 0.2`` (the same values) or ``(a, b) = (1, 2), (3, 4)``; a long list cut
+    after ``most`` values."""
+
+    def listed(items: list[str]) -> str:
+        if len(items) > most:
+            items = [*items[: most - 1], "...", items[-1], f"({len(items)} values)"]
+            return ", ".join(items[:-1]) + " " + items[-1]
+        return ", ".join(items)
+
+    parts = []
+    for dim in dimensions(axes):
+        if not dim[0].swept:
+            continue
+        if len(dim) == 1:
+            parts.append(f"{dim[0].key} = {listed(list(dim[0].texts))}")
+        elif all(all(_same(a.values[i], dim[0].values[i]) for a in dim) for i in range(len(dim[0].values))):
+            parts.append(f"{' = '.join(a.key for a in dim)} = {listed(list(dim[0].texts))}")
+        else:
+            rows = [f"({', '.join(row)})" for row in zip(*(a.texts for a in dim), strict=True)]
+            parts.append(f"({', '.join(a.key for a in dim)}) = {listed(rows)}")
+    parts.append("seed 1" if seeds == 1 else f"seeds 1-{seeds}")
+    return " x ".join(parts)
 
 
 def _scene_text(path: str | None) -> str:
@@ -262,12 +374,15 @@ def _last_diagnostics(path: Path) -> dict:
 
 
 def write_manifest(out_dir: Path, runs: list[RunSpec], axes: list[Axis], scene_path: str | None, seeds: int, name: str) -> None:
+    # "together": the keys whose i-th values went into one run (absent when every swept key varied on its own)
+    together = [[a.key for a in dim] for dim in dimensions(axes) if len(dim) > 1 and dim[0].swept]
     doc = {
         "melange_ti_version": __version__,
         "scene": None if scene_path is None else str(Path(scene_path).resolve()),
         "scene_name": name,
         "seeds": list(range(1, seeds + 1)),
         "sweep": {a.key: list(a.values) for a in axes if a.swept},
+        **({"together": together} if together else {}),
         "overrides": {a.key: a.values[0] for a in axes if not a.swept},
         "runs": [
             {
@@ -371,6 +486,112 @@ def dask_setup(worker) -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+# ---------------------------------------------------------------------------- stopping
+class Terminated(KeyboardInterrupt):
+    """SIGTERM: the ensemble stops as after Ctrl-C (its cluster shut down, the manifest
+    written, the finished runs kept, the unfinished ones left to resume), with status 143."""
+
+
+class _Stopping:
+    """SIGINT and SIGTERM while ``melange-ti ensemble`` runs (handled in the main thread only).
+
+    The first signal raises KeyboardInterrupt (SIGINT) or :class:`Terminated` (SIGTERM) in
+    the main thread, and the cluster is shut down as the ``with`` blocks unwind. While the
+    local cluster starts, a signal waits until it is up (one stopped half-started would leave
+    its workers to themselves). A second signal while the first is handled does not wait for
+    the shutdown: it kills this process's new child processes and exits at once."""
+
+    def __init__(self) -> None:
+        self.first: int | None = None  # the first signal received
+        self.holding = False  # the local cluster is starting
+        self.held: int | None = None  # the signal received meanwhile
+        self.before: set[int] = set()  # child processes before the ensemble began
+
+    @contextlib.contextmanager
+    def installed(self):
+        if threading.current_thread() is not threading.main_thread():  # signals go to the main thread
+            yield
+            return
+        self.first, self.held, self.before = None, None, _descendants()
+        previous = {sig: signal.signal(sig, self._handle) for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            yield
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+            self.first = self.held = None
+
+    @contextlib.contextmanager
+    def starting(self):
+        """Hold a signal while the local cluster starts; raise it once the cluster is up."""
+        self.holding = True
+        try:
+            yield
+        finally:
+            self.holding = False
+        if self.held is not None:
+            held, self.held = self.held, None
+            raise _exception(held)
+
+    def _handle(self, signum: int, frame) -> None:
+        if self.first is not None:
+            _reap(self.before, grace=0.0)
+            print(
+                f"melange-ti: {signal.Signals(signum).name} again: worker processes killed; "
+                "run the same command again to resume the unfinished runs",
+                file=sys.stderr,
+                flush=True,
+            )
+            os._exit(_status(self.first))
+        self.first = signum
+        if self.holding:
+            self.held = signum
+            return
+        raise _exception(signum)
+
+
+def _exception(signum: int) -> KeyboardInterrupt:
+    return Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+def _status(signum: int) -> int:
+    return EXIT_TERMINATED if signum == signal.SIGTERM else EXIT_INTERRUPTED
+
+
+_STOPPING = _Stopping()
+
+
+def _descendants() -> set[int]:
+    import psutil
+
+    return {p.pid for p in psutil.Process().children(recursive=True)}
+
+
+def _reap(before: set[int], grace: float = 5.0) -> None:
+    """Stop every process below this one that was not there in ``before`` (but Python's
+    resource tracker, which ends with this process): SIGTERM, then SIGKILL after ``grace`` s.
+    After the cluster's own shutdown this normally finds nothing."""
+    import multiprocessing.resource_tracker
+
+    import psutil
+
+    tracker = getattr(multiprocessing.resource_tracker._resource_tracker, "_pid", None)
+    left = []
+    for p in psutil.Process().children(recursive=True):
+        try:
+            if p.pid not in before and p.pid != tracker and p.status() != psutil.STATUS_ZOMBIE:
+                left.append(p)
+        except psutil.NoSuchProcess:
+            pass
+    for how in ("terminate", "kill") if grace > 0 else ("kill",):
+        for p in left:
+            with contextlib.suppress(psutil.NoSuchProcess):
+                getattr(p, how)()
+        _, left = psutil.wait_procs(left, timeout=grace if grace > 0 else 1.0)
+        if not left:
+            return
+
+
 def _reachable(scheduler: str) -> None:
     """Open and close a TCP connection to ``scheduler``: a refused port fails at once and a
     silent host within :data:`CONNECT_SECONDS`, where Dask's client retries for 30 s."""
@@ -408,27 +629,31 @@ def _cluster(scheduler: str | None, workers: int):
             finally:
                 client.close()
             return
-        cluster = LocalCluster(
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            # Dask's warnings are noise here: an interrupt's shutdown ("Worker process still
-            # alive after 4.0 seconds, killing", a cancelled task), an event loop blocked while a
-            # kernel holds the GIL. Failures are reported per run, and Dask's errors still print.
-            silence_logs=logging.ERROR,
-            preload=["melange_ti.ensemble"],  # dask_setup: the workers leave Ctrl-C to the client
-            # No import banner; never Taichi's print buffer (see run_one).
-            env={"ENABLE_TAICHI_HEADER_PRINT": "0", "TI_ENABLE_PYBUF": "0"},
-        )
+        before = _descendants()
         try:
-            client = Client(cluster)
-            try:
+            with contextlib.ExitStack() as stack:
+                with _STOPPING.starting():  # a signal now stops the cluster once it is up
+                    cluster = LocalCluster(
+                        n_workers=workers,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=None,
+                        # Dask's warnings are noise here: an interrupt's shutdown ("Worker process still
+                        # alive after 4.0 seconds, killing", a cancelled task), an event loop blocked while a
+                        # kernel holds the GIL. Failures are reported per run, and Dask's errors still print.
+                        silence_logs=logging.ERROR,
+                        preload=["melange_ti.ensemble"],  # dask_setup: the workers leave Ctrl-C to the client
+                        # No import banner; never Taichi's print buffer (see run_one).
+                        env={"ENABLE_TAICHI_HEADER_PRINT": "0", "TI_ENABLE_PYBUF": "0"},
+                    )
+                    stack.callback(cluster.close)
+                    client = Client(cluster)
+                    stack.callback(client.close)
                 yield client, f"{workers} local worker{'s' if workers != 1 else ''}"
-            finally:
-                client.close()
         finally:
-            cluster.close()
+            # However the block ends (done, an error, Ctrl-C, SIGTERM), no worker outlives it:
+            # the cluster's close stops its workers (killed after a few seconds); any left is killed here
+            _reap(before)
 
 
 def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec], workers: int, arch: str = "cpu") -> None:
@@ -463,6 +688,8 @@ def _run_all(client, text: str, out_dir: Path, todo: list[RunSpec], workers: int
                 else:  # the task itself failed: worker died (KilledWorker), not importable, ...
                     try:
                         exc = fut.exception()
+                    except KeyboardInterrupt:  # Ctrl-C or SIGTERM (Terminated) just then: not this run's error
+                        raise
                     except BaseException as cancelled:  # CancelledError when the cluster went away
                         exc = cancelled
                     r.error = _error_line(exc)
@@ -532,7 +759,31 @@ def report(runs: list[RunSpec], out_dir: Path, where: str, wall: float) -> None:
 
 
 def main(args) -> int:
-    """The ``ensemble`` subcommand; returns the exit status (0, or 3 if any run failed)."""
+    """The ``ensemble`` subcommand; returns the exit status: 0, 3 if any run failed, 130 after
+    Ctrl-C (SIGINT), 143 after SIGTERM (bad input raises: status 2). However it ends, its
+    local cluster is shut down and no worker process is left running."""
+    with _STOPPING.installed():
+        try:
+            return _main(args)
+        except KeyboardInterrupt as exc:  # before anything was written, or after the manifest was
+            return _stopped(exc)
+
+
+def _stopped(exc: KeyboardInterrupt) -> int:
+    """The one line after Ctrl-C or SIGTERM; the status."""
+    logging.disable(logging.NOTSET)
+    if isinstance(exc, Terminated):
+        print(
+            "melange-ti: terminated (SIGTERM); the cluster is shut down and the finished runs kept: "
+            "run the same command again to resume the unfinished runs",
+            file=sys.stderr,
+        )
+        return EXIT_TERMINATED
+    print("melange-ti: interrupted; run the same command again to resume the unfinished runs", file=sys.stderr)
+    return EXIT_INTERRUPTED
+
+
+def _main(args) -> int:
     from .errors import RunError
 
     t0 = wallclock.perf_counter()
@@ -547,7 +798,7 @@ def main(args) -> int:
         raise RunError(f"--out {args.out}: exists and is not a directory")
 
     text = _scene_text(args.scene)
-    axes = parse_sweep(args.set)
+    axes = parse_sweep(args.set, getattr(args, "zip", None))
     runs = plan(axes, args.seeds)
     resolved = validate(text, runs, args.scene)
     name = scn.loads(text, [*runs[0].overrides, (SEED_KEY, 1)]).name
@@ -581,8 +832,8 @@ def main(args) -> int:
                 print(
                     f"ensemble: {len(todo)} run{'s' if len(todo) != 1 else ''} to do"
                     + (f" ({skipped} already complete)" if skipped else "")
-                    + f" into {out_dir}, on {args.scheduler or f'{workers} local worker' + ('s' if workers != 1 else '')}; "
-                    "an estimate of the time follows the first run",
+                    + f" into {out_dir}, on {args.scheduler or f'{workers} local worker' + ('s' if workers != 1 else '')}"
+                    + f" ({describe(axes, args.seeds)}); an estimate of the time follows the first run",
                     file=sys.stderr,
                     flush=True,
                 )
@@ -591,12 +842,10 @@ def main(args) -> int:
                 else:
                     client, where = stack.enter_context(_cluster(None, workers))
                 _run_all(client, text, out_dir, todo, workers, args.arch)
-    except KeyboardInterrupt:
-        logging.disable(logging.NOTSET)
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: the cluster is closed by now
         if (out_dir / MANIFEST).exists():
             write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
-        print("melange-ti: interrupted; run the same command again to resume the unfinished runs", file=sys.stderr)
-        return 130
+        return _stopped(exc)
     write_manifest(out_dir, runs, axes, args.scene, args.seeds, name)
     report(runs, out_dir, where, wallclock.perf_counter() - t0)
     return EXIT_FAILED if any(r.status == "failed" for r in runs) else EXIT_OK

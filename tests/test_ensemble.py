@@ -168,7 +168,8 @@ def test_sweep_resume_overwrite_skip_and_identity(tiny, tmp_path, capsys):
     assert "4 ran, 0 already complete, 0 failed" in captured.out
     assert "total wall time" in captured.out
     # the plan before it starts, and an estimate once the first run is done
-    assert f"ensemble: 4 runs to do into {out}, on 2 local workers" in captured.err, captured.err
+    plan_line = f"ensemble: 4 runs to do into {out}, on 2 local workers (contacts.discs = 8, 12 x seeds 1-2)"
+    assert plan_line in captured.err, captured.err
     assert "the other 3 should take about" in captured.err and "(1 running now, then 1 round of ~" in captured.err, captured.err
 
     manifest = json.loads((out / "ensemble.json").read_text())
