@@ -23,7 +23,7 @@ from ..physics.effects import NAMES as EFFECTS
 from ..physics.effects import PAPER_EFFECTS, Effects, Key
 from . import keys as K
 from .errors import SceneError, error, fmt, one_line
-from .initial import Icebergs, check_geometry, check_time_step, from_run, generate_shelf, with_outlines
+from .initial import FLOAT, Icebergs, check_geometry, check_time_step, floated, from_run, generate_shelf, with_outlines
 from .toml import dumps_toml, parse_value
 
 
@@ -80,8 +80,13 @@ class Scene:
             return generate_shelf(self.shelf, self.physics, self.time.seed)
         if self.start is not None:
             return from_run(self.start)
-        cols = {k: np.array([float(b.get(k, d)) for b in self.iceberg_table]) for k, d in ICEBERG_DEFAULTS.items()}
-        return with_outlines([b.get("vertices") for b in self.iceberg_table], cols)
+        cols = {k: np.array([float(b.get(k, d)) for b in self.iceberg_table]) for k, d in ICEBERG_DEFAULTS.items() if k != "z"}
+        floats = np.array([b.get("z", FLOAT) == FLOAT for b in self.iceberg_table])
+        cols["z"] = np.array([0.0 if f else float(b["z"]) for f, b in zip(floats, self.iceberg_table, strict=True)])
+        bergs = with_outlines([b.get("vertices") for b in self.iceberg_table], cols)
+        if floats.any():  # each at its floating draft (given or left out as "float")
+            bergs = floated(bergs, floats, self.physics.density_ratio, self.physics.water_level)
+        return bergs
 
     @property
     def source(self) -> dict:
@@ -229,7 +234,12 @@ def _iceberg_table(doc: dict) -> tuple[dict, ...] | None:
     for k, berg in enumerate(raw):
         if not isinstance(berg, dict):
             raise error(f"iceberg[{k}]", berg, "must be a table")
-        values = _checked(f"iceberg[{k}]", berg, K.ICEBERG)
+        z = berg.get("z", FLOAT)  # a number, or "float" (also when left out): floated at its tilt (initial.floated)
+        if z != FLOAT:
+            if isinstance(z, bool) or not isinstance(z, int | float):
+                raise error(f"iceberg[{k}].z", z, f'must be a number (w) or "{FLOAT}" (floating at its tilt in still water)')
+            z = _check_type(f"iceberg[{k}].z", z, 0.0)
+        values = {**_checked(f"iceberg[{k}]", {q: v for q, v in berg.items() if q != "z"}, K.ICEBERG), "z": z}
         if "vertices" in values:
             bad = outline_problem(values["vertices"])
             if bad is None and ("width" in values or "thickness" in values):

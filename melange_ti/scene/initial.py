@@ -80,6 +80,39 @@ def with_outlines(bergs: list[np.ndarray | None], cols: dict) -> Icebergs:
     return Icebergs(**{**cols, "width": width, "thickness": thickness}, outline=shape, corners=corners)
 
 
+# what an [[iceberg]] table's z may say instead of a number (or say by leaving z out): the
+# height at which its outline floats at its tilt in still water (:func:`floated`)
+FLOAT = "float"
+
+
+def floated(bergs: Icebergs, which: np.ndarray, density_ratio: float, water_level: float) -> Icebergs:
+    """``bergs`` with the icebergs ``which`` (a boolean mask) set to float: each centre of mass
+    at the height where its outline, tilted by its ``theta``, displaces ``density_ratio`` of
+    its area below a still sea at ``water_level`` (its draft in hydrostatic equilibrium; not
+    in balance in roll unless the tilt is one). An upright rectangle takes the shelf's exact
+    :func:`equilibrium_z`; any other outline the bisection of :func:`geometry.floating_height`
+    on its corners turned by ``theta``."""
+    z = bergs.z.copy()
+    for i in np.flatnonzero(which):
+        if bergs.outline is None or (bergs.corners[i] == 4 and _is_rectangle(bergs, i)):
+            if bergs.theta[i] == 0.0:
+                z[i] = equilibrium_z(bergs.thickness[i], density_ratio, water_level)
+                continue
+            corners = rectangle(bergs.width[i], bergs.thickness[i])
+        else:
+            corners = bergs.outline[i, : bergs.corners[i]]
+        c, s = math.cos(bergs.theta[i]), math.sin(bergs.theta[i])
+        turned = corners @ np.array([[c, s], [-s, c]])  # each corner (u, v) to (u c - v s, u s + v c)
+        z[i] = water_level + floating_height(turned, density_ratio)
+    return Icebergs(**{**{f: getattr(bergs, f) for f in bergs.__dataclass_fields__}, "z": z})
+
+
+def _is_rectangle(bergs: Icebergs, i: int) -> bool:
+    """Whether iceberg ``i``'s outline is the rectangle of its width and thickness, corner for
+    corner (a rectangle given by width and thickness in a scene that also holds polygons)."""
+    return bool(np.array_equal(bergs.outline[i, :4], rectangle(bergs.width[i], bergs.thickness[i])))
+
+
 def equilibrium_z(thickness: np.ndarray | float, density_ratio: float, water_level: float) -> Any:
     """Centre height of an upright iceberg floating in hydrostatic equilibrium (draft r*h)."""
     return water_level - density_ratio * thickness + 0.5 * thickness

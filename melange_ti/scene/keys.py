@@ -233,7 +233,13 @@ START = (
 
 ICEBERG = (
     Key("x", 0.0, "w", "centre of mass, horizontal (seaward +)"),
-    Key("z", 0.0, "w", "centre of mass, vertical (up +; the sea surface at water_level)"),
+    Key(
+        "z",
+        "float",
+        "w",
+        'centre of mass, vertical (up +; the sea surface at water_level); "float", or left out: the height at which the '
+        "outline, tilted by theta, floats in still water (it displaces density_ratio of its area: docs/model.md, Outlines)",
+    ),
     Key("theta", 0.0, "rad", "tilt, counter-clockwise, 0 upright (thickness vertical)"),
     Key("vx", 0.0, "w / sqrt(w/g)", "velocity, horizontal"),
     Key("vz", 0.0, "w / sqrt(w/g)", "velocity, vertical"),

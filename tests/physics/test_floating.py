@@ -121,3 +121,40 @@ def test_a_polygons_small_roll_period(name, r):
     if name == "right triangle":
         assert abs(mode["omega_decoupled"] / mode["omega"] - 1) > 0.1
     assert fs.polygon_roll_period(name, r, theta, mode) == pytest.approx(2 * math.pi / mode["omega"], rel=0.01)
+
+
+def test_icebergs_given_without_z_float_at_their_tilt():
+    """Issue 47: icebergs given one by one were not floated (z left out meant z = 0). Left out,
+    or "float", z is now the height at which the outline, at its tilt, displaces
+    density_ratio of its area in still water: an upright rectangle at the shelf's exact
+    equilibrium_z, any other outline where the numpy clipping of testing.floating puts it;
+    the model's own hydrostatics then holds each in heave (its first kick leaves vz at
+    rounding). A given z is kept, and the resolved scene says "float", so it reloads the same."""
+    from melange_ti import scene
+    from melange_ti.scene import DENSITY_RATIO as R
+
+    triangle = [[0.0, 0.0], [1.0, 0.0], [0.5, 0.8]]
+    pentagon = [[0.0, 0.0], [1.2, 0.1], [1.1, 0.9], [0.4, 1.4], [-0.2, 0.5]]
+    bergs = (
+        "[[iceberg]]\nx = 0.0\n"  # upright rectangle, z left out
+        '[[iceberg]]\nx = 3.0\ntheta = 0.3\nz = "float"\n'
+        f"[[iceberg]]\nx = 6.0\ntheta = 0.5\nvertices = {triangle}\n"
+        f'[[iceberg]]\nx = 9.0\ntheta = -0.4\nz = "float"\nvertices = {pentagon}\n'
+        "[[iceberg]]\nx = 12.0\nz = -0.3\n"
+    )
+    text = '[scene]\neffects = ["gravity", "buoyancy"]\n[physics]\nwater_level = 0.25\n[time]\ndt = 0.01\n' + bergs
+    sc = scene.loads(text)
+    b = sc.icebergs()
+    level = 0.25
+    assert b.z[0] == equilibrium_z(1.4, R, level)
+    for i, theta in ((1, 0.3), (2, 0.5), (3, -0.4)):
+        poly = b.outline[i, : b.corners[i]]
+        assert b.z[i] == pytest.approx(level + floating(poly, R, theta)[1], abs=1e-12), i
+    assert b.z[4] == -0.3
+    again = scene.loads(sc.to_toml()).icebergs()
+    assert np.array_equal(again.z, b.z) and sc.to_toml().count('z = "float"') == 4
+    m = Model(sc)
+    m.advance(1)
+    vz = m.state()["vz"]
+    assert np.all(np.abs(vz[:4]) < 1e-11), vz  # in balance in heave (the tilted ones roll)
+    assert vz[4] < -1e-6  # the one given z = -0.3, above its draft (-0.302 here), sinks
