@@ -22,7 +22,7 @@ from ..physics.effects import BY_NAME as EFFECT_DECLS
 from ..physics.effects import NAMES as EFFECTS
 from ..physics.effects import PAPER_EFFECTS, Effects, Key
 from . import keys as K
-from .errors import SceneError, error, fmt, one_line
+from .errors import SceneError, error, fmt, one_line, unit_words, with_units
 from .initial import FLOAT, Icebergs, check_geometry, check_time_step, floated, from_run, generate_shelf, with_outlines
 from .toml import dumps_toml, parse_value
 
@@ -187,8 +187,14 @@ def _checked(prefix: str, raw: dict, keys: tuple[Key, ...]) -> dict:
         values[key] = _check_type(full, value, by_name[key].default)
         rule = by_name[key]
         if rule.rule is not None and not rule.rule(values[key]):
-            raise error(full, values[key], rule.accepts)
+            raise error(full, values[key], _accepts(rule, values[key]))
     return values
+
+
+def _accepts(key: Key, value: Any) -> str:
+    """What ``key`` accepts, a number's range naming its declared units (``must be in [-0.5, 0.5] rad``)."""
+    numeric = isinstance(key.default, (int, float)) and not isinstance(key.default, bool)
+    return with_units(key.accepts, key.units, value, key.rule) if numeric else key.accepts
 
 
 def _table(doc: dict, name: str, keys: tuple[Key, ...]) -> dict:
@@ -296,7 +302,13 @@ def _whole_steps(key: str, value: float, dt: float) -> None:
     if not math.isfinite(ratio) or ratio > 1e13:
         raise error(key, value, f"is more than 1e13 steps of time.dt = {dt:g}")
     if round(ratio) < 1:
-        raise error(key, value, f"rounds to 0 steps of time.dt = {dt:g}; use at least {dt:g}")
+        raise error(key, value, f"rounds to 0 steps of time.dt = {dt:g}; use at least {dt:g} {unit_words(_units(key))}")
+
+
+def _units(key: str) -> str:
+    """The declared units of scene key ``SECTION.KEY``."""
+    section, name = key.split(".")
+    return next(k.units for k in K.SECTIONS[section] if k.name == name)
 
 
 def _names(key: str, value: Any) -> list:

@@ -256,22 +256,28 @@ def check(physics, dt: float) -> tuple[str, float, str] | None:
     a grid, or make one whose shortest wave the wave step (:func:`steps_per_wave` times dt) cannot follow
     (symplectic Euler needs ``omega_max Dt < 2``, ``omega_max^2 = g k tanh(k H)`` at ``k = pi /
     dx``; kept below 1 for accuracy), else ``None``."""
+    u = {k.name: k.units for k in EFFECT.keys}  # each bound said in its key's declared units
     length = physics.wave_end - physics.wall_x
     if length <= 0:
-        return "physics.wave_end", physics.wave_end, f"must be beyond the wall (physics.wall_x = {physics.wall_x:g})"
+        wall = f"physics.wall_x = {physics.wall_x:g} {u['wave_end']}"
+        return "physics.wave_end", physics.wave_end, f"must be beyond the wall ({wall})"
     if physics.wave_pressure_depth >= physics.water_depth:
         return (
             "physics.wave_pressure_depth",
             physics.wave_pressure_depth,
-            f"must be less than physics.water_depth = {physics.water_depth:g} (set a smaller wave_pressure_depth "
-            "or deeper water)",
+            f"must be less than physics.water_depth = {physics.water_depth:g} {u['wave_pressure_depth']} (set a smaller "
+            "wave_pressure_depth or deeper water)",
         )
     if physics.wave_sponge >= length:
-        return "physics.wave_sponge", physics.wave_sponge, f"must be less than wave_end - wall_x = {length:g}"
+        return "physics.wave_sponge", physics.wave_sponge, f"must be less than wave_end - wall_x = {length:g} {u['wave_sponge']}"
     cells, dx = cells_and_spacing(physics.wall_x, physics.wave_end, physics.wave_dx)
     if cells > MAX_CELLS:
         most = length / MAX_CELLS
-        return "physics.wave_dx", physics.wave_dx, f"makes more than {MAX_CELLS} wave cells; use at least {most:.4g}"
+        return (
+            "physics.wave_dx",
+            physics.wave_dx,
+            f"makes more than {MAX_CELLS} wave cells; use at least {most:.4g} {u['wave_dx']}",
+        )
     k = math.pi / dx
     omega = math.sqrt(k * math.tanh(k * physics.water_depth))
     step = steps_per_wave(physics, dt) * dt
@@ -281,13 +287,13 @@ def check(physics, dt: float) -> tuple[str, float, str] | None:
                 "physics.wave_dt",
                 physics.wave_dt,
                 f"makes the wave step {step:g} too long for the grid's shortest waves (spacing {dx:.4g}: their "
-                f"period {2 * math.pi / omega:.3g} needs a step <= {1.0 / omega:.3g}); use a smaller wave_dt "
-                "or a larger wave_dx",
+                f"period {2 * math.pi / omega:.3g} needs a step <= {1.0 / omega:.3g} {u['wave_dt']}); use a smaller "
+                "wave_dt or a larger wave_dx",
             )
         return (
             "physics.wave_dx",
             physics.wave_dx,
             f"makes waves too short for time.dt = {dt:g} (grid spacing {dx:.4g}: their period "
-            f"{2 * math.pi / omega:.3g} needs dt <= {1.0 / omega:.3g}); use a larger wave_dx or a smaller dt",
+            f"{2 * math.pi / omega:.3g} needs dt <= {1.0 / omega:.3g} {u['wave_dt']}); use a larger wave_dx or a smaller dt",
         )
     return None
