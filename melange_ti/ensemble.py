@@ -637,7 +637,9 @@ def _cluster(scheduler: str | None, workers: int):
                         n_workers=workers,
                         threads_per_worker=1,
                         processes=True,
-                        dashboard_address=None,
+                        # the scheduler's HTTP server on a free port: Dask's 8787 is taken by a second
+                        # ensemble running beside this one, and Dask then warns in the ensemble's output
+                        dashboard_address=":0",
                         # Dask's warnings are noise here: an interrupt's shutdown ("Worker process still
                         # alive after 4.0 seconds, killing", a cancelled task), an event loop blocked while a
                         # kernel holds the GIL. Failures are reported per run, and Dask's errors still print.

@@ -76,8 +76,18 @@ def test_unreachable_scheduler_fails_fast_and_creates_nothing(tmp_path, capsys):
 # ---------------------------------------------------------------------------- an interrupt
 def test_interrupted_ensemble_prints_no_dask_warnings(tmp_path):
     """Ctrl-C (SIGINT to the process group, as a terminal sends it) while the runs go: the
-    plan line and the interrupt's line, none of Dask's shutdown warnings; status 130."""
+    plan line and the interrupt's line, none of Dask's shutdown warnings; status 130. Dask's
+    dashboard port (8787) is held meanwhile, as a second ensemble beside this one holds it:
+    Dask then warned that it was in use (a test run's two processes met it by chance)."""
+    import socket
+
     (tmp_path / "tiny.toml").write_text(TINY.replace("duration = 5.0", "duration = 2000.0"))
+    held = socket.socket()
+    try:
+        held.bind(("", 8787))
+        held.listen()
+    except OSError:  # already taken (by another ensemble): the same situation
+        pass
     env = {**os.environ, "MELANGE_TEST_THREADS": "1"}
     p = subprocess.Popen(
         [sys.executable, "-m", "melange_ti", "ensemble", "tiny.toml", "--seeds", "1", "--out", "ens"],
@@ -97,6 +107,7 @@ def test_interrupted_ensemble_prints_no_dask_warnings(tmp_path):
         os.killpg(p.pid, signal.SIGINT)
         out, err = p.communicate(timeout=120)
     finally:
+        held.close()
         if p.poll() is None:
             os.killpg(p.pid, signal.SIGKILL)
     assert p.returncode == 130, err
