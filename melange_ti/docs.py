@@ -228,6 +228,7 @@ def output_page() -> str:
             meaning = attrs["long_name"]
             if group == "diagnostics" and owners.get(name):  # in a run whose scene names the effect only
                 meaning = re.sub(r" \(0 without the \w+ effect\)", "", re.sub(r"; 0 without the \w+ effect\)", ")", meaning))
+                meaning = re.sub(r" \(without the \w+ effect: [^)]*\)", "", meaning)
                 meaning = f"with the {owners[name]} effect: {meaning}"
             out.append(f"| `/{group}/{name}` | {d} | {_cell(attrs['units'])} | {_cell(meaning)} |")
     coords = [d for d in DATASETS if d.coordinate]

@@ -197,13 +197,14 @@ class Compiling:
 def watch_compiling():
     """Yield a :class:`Compiling` that tells, after the block, which kernels Taichi compiled
     in it and which it loaded from its offline cache: so a run says what happened, not what
-    a marker foretold. Taichi says it itself at its debug level (on file descriptor 2, caught
-    in a temporary file for the block; every other line is passed on to stderr afterwards);
+    a marker foretold. Taichi says it itself at its debug level (on file descriptor 2, led
+    through a pipe for the block to a thread that counts those lines and passes every other on
+    to stderr at once);
     each compile call (``Program.compile_kernel``: compiles a kernel or loads it, a lookup
     once it ran in this process) is also timed, for a Taichi that says nothing
     (:data:`COMPILED_SECONDS`)."""
     import sys
-    import tempfile
+    import threading
     import time
 
     from taichi.lang import impl
@@ -223,29 +224,41 @@ def watch_compiling():
             if took > COMPILED_SECONDS:
                 slow.kernels += 1
 
-    with tempfile.TemporaryFile() as log:
-        sys.stderr.flush()
-        saved = os.dup(2)
-        os.dup2(log.fileno(), 2)
+    # Taichi's lines go through a pipe to a thread that counts the markers and passes every other
+    # line on to stderr at once (so a crash's message is not held back), not to a file read after
+    words = {"compiled": 0, "loaded": 0}
+    read_end, write_end = os.pipe()
+    sys.stderr.flush()
+    saved = os.dup(2)
+
+    def pump() -> None:
+        with os.fdopen(read_end, "rb") as lines:
+            for line in lines:
+                text = line.decode(errors="replace")
+                if _COMPILED_LINE.search(text):
+                    words["compiled"] += 1
+                elif _LOADED_LINE.search(text):
+                    words["loaded"] += 1
+                if not text.startswith(("[D ", "[T ", "[I ")):
+                    os.write(saved, line)
+
+    reader = threading.Thread(target=pump, name="melange-ti-compile-log", daemon=True)
+    reader.start()
+    try:
+        os.dup2(write_end, 2)
         ti.set_logging_level(ti.DEBUG)
         if original is not None:
             program.compile_kernel = compile_kernel
-        try:
-            yield seen
-        finally:
-            if original is not None:
-                program.compile_kernel = original
-            ti.set_logging_level(ti.WARN)  # runtime.init's level
-            sys.stderr.flush()
-            os.dup2(saved, 2)
-            os.close(saved)
-            log.seek(0)
-            lines = log.read().decode(errors="replace").splitlines(keepends=True)
-            seen.kernels = sum(1 for line in lines if _COMPILED_LINE.search(line))
-            seen.loaded = sum(1 for line in lines if _LOADED_LINE.search(line))
-            if not seen.kernels and not seen.loaded:  # no word from Taichi: by the time the calls took
-                seen.kernels = slow.kernels
-            rest = "".join(line for line in lines if not line.startswith(("[D ", "[T ", "[I ")))
-            if rest:
-                sys.stderr.write(rest)
-                sys.stderr.flush()
+        yield seen
+    finally:
+        if original is not None:
+            program.compile_kernel = original
+        ti.set_logging_level(ti.WARN)  # runtime.init's level
+        sys.stderr.flush()
+        os.dup2(saved, 2)
+        os.close(write_end)  # the pipe's last writer: the reader sees its end
+        reader.join(timeout=10)
+        os.close(saved)
+        seen.kernels, seen.loaded = words["compiled"], words["loaded"]
+        if not seen.kernels and not seen.loaded:  # no word from Taichi: by the time the calls took
+            seen.kernels = slow.kernels

@@ -120,10 +120,11 @@ class RunSummary:
     residual_largest_time: float = _doc("the time of residual_largest")
     released_largest: float = _doc("the largest potential energy released at any diagnostic time")
     dissipated_largest: float = _doc("the largest energy the ledgers had booked at any diagnostic time")
+    energy_largest: float = _doc("the largest |E| at any diagnostic time (the scale of rounding: energy.ROUNDING_SHARE)")
     dt: float = _doc("the time step, time.dt")
     dt_accepted: float = _doc(
-        "the largest time.dt the scene accepts, a share of the stability limit 2/omega of its stiffest heave (NaN without "
-        "buoyancy: docs/model.md, 'The largest time step')"
+        "the largest time.dt the icebergs' hydrostatics accept, a share of the stability limit 2/omega of the stiffest "
+        "heave (NaN without buoyancy: docs/model.md, 'The largest time step'; bonds and waves may accept less)"
     )
 
     def lines(self) -> list[str]:
@@ -157,6 +158,7 @@ class RunSummary:
             self.residual_largest_time,
             dt=self.dt or None,
             accepted=self.dt_accepted,
+            energy=self.energy_largest,
         )
         return [verdict] if verdict else []
 
@@ -722,7 +724,7 @@ class Simulation:
         try:
             b = budget_series(read_diagnostics(self.out))
         except OutputError:
-            b = {k: np.zeros(0) for k in ("time", "released", "dissipated", "residual")}
+            b = {k: np.zeros(0) for k in ("time", "released", "dissipated", "residual", "energy")}
         res = b["residual"]
         k = int(np.argmax(~np.isfinite(res))) if (~np.isfinite(res)).any() else int(np.argmax(np.abs(res))) if res.size else 0
         limit = time_step_limit(self.scene, self.bergs)
@@ -731,6 +733,7 @@ class Simulation:
             "residual_largest_time": float(b["time"][k]) if res.size else 0.0,
             "released_largest": float(np.nanmax(np.abs(b["released"]), initial=0.0)),
             "dissipated_largest": float(np.nanmax(np.abs(b["dissipated"]), initial=0.0)),
+            "energy_largest": float(np.nanmax(np.abs(b["energy"]), initial=0.0)),
             "dt": float(self.scene.time.dt),
             "dt_accepted": DT_SAFETY * float(limit[0]) if limit is not None else float("nan"),
         }

@@ -163,10 +163,10 @@ def kept_restitution(k: np.ndarray, vn: float, vt: float, e: float, mu: float) -
     ``(e'^2 M_nn v_n^2 - u . M u) / 2`` with ``M = K^-1``, zero at
     ``e' = sqrt(u . M u / (M_nn v_n^2))``; sliding on side ``s`` (``d = (1, s mu)``) it is
     ``J_n (d . u) + J_n^2 (d . K d) / 2``, zero at ``J_n = -2 (d . u) / (d . K d)``, that is
-    ``e' = -J_n (K_nn + s mu K_nt) / v_n - 1``. The gain grows with ``e'``, so the root whose
-    regime is the law's own there is the one."""
+    ``e' = -J_n (K_nn + s mu K_nt) / v_n - 1``. The gain changes sign once over ``[0, e]`` (it
+    is <= 0 at ``e' = 0``), so the root whose regime is the law's own there is the one."""
     jn, jt, _ = newton_coulomb(k, vn, vt, e, mu)
-    if impact_gain(k, vn, vt, jn, jt) <= 0.0:
+    if impact_gain(k, vn, vt, jn, jt) <= 64.0 * np.finfo(float).eps * 0.5 * vn * vn / k[0, 0]:  # as the kernel: past rounding
         return e
     u = np.array([vn, vt])
     m = np.linalg.inv(k)
@@ -176,11 +176,12 @@ def kept_restitution(k: np.ndarray, vn: float, vt: float, e: float, mu: float) -
         star = -2.0 * (d @ u) / (d @ k @ d)
         roots.append((float(-star * (k[0, 0] + side * mu * k[0, 1]) / vn - 1.0), "slide", side))
     for kept, regime, side in roots:
-        if -1e-12 <= kept <= e:
-            jn, jt, got = newton_coulomb(k, vn, vt, max(kept, 0.0), mu)
+        if -1e-12 <= kept <= e + 1e-12:
+            kept = min(max(kept, 0.0), e)
+            jn, jt, got = newton_coulomb(k, vn, vt, kept, mu)
             if got == regime and (regime == "stick" or np.sign(jt) == side):
-                return max(kept, 0.0)
-    return 0.0
+                return kept
+    raise AssertionError(f"no restitution keeps the energy (K = {k.tolist()}, u = {vn}, {vt}, e = {e}, mu = {mu})")
 
 
 def coulomb_impulse(k: np.ndarray, vn: float, vt: float, e: float, mu: float) -> tuple[float, float, str]:

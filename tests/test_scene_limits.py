@@ -130,13 +130,15 @@ def test_largest_accepted_dt_is_stable_and_twice_it_runs_away():
 
 
 # ----------------------------------------------------------------------------- the budget's warning
-def _summary(released: float, residual: float, largest: float | None = None, dissipated: float = 0.0) -> list[str]:
+def _summary(
+    released: float, residual: float, largest: float | None = None, dissipated: float = 0.0, energy: float = 0.0
+) -> list[str]:
     """A summary whose budget ended at ``residual`` and reached ``largest`` (default: the end's)."""
     values = {f.name: 0 for f in dataclasses.fields(RunSummary)}
     values.update(path="r.h5", steps=10, wall_seconds=1.0, startup_seconds=0.5, startup_steps=5, steps_per_second=10.0)
     values.update(compiled=False, backend="x64", energy_released=released, energy_residual=residual, dt=0.01)
     values.update(residual_largest=residual if largest is None else largest, released_largest=released)
-    values.update(dissipated_largest=dissipated, residual_largest_time=7.0, dt_accepted=float("nan"))
+    values.update(dissipated_largest=dissipated, residual_largest_time=7.0, dt_accepted=float("nan"), energy_largest=energy)
     return RunSummary(**values).lines()
 
 
@@ -152,6 +154,10 @@ def test_summary_warns_when_the_residual_is_too_large_to_trust():
     # against what the ledgers booked, where that is larger (a struck iceberg releases little)
     assert not any(ln.startswith("warning:") for ln in _summary(0.1, 0.01, dissipated=1.0))
     assert any(ln.startswith("warning:") for ln in _summary(0.1, float("nan"), dissipated=1.0))
+    # a still scene (icebergs floated at rest): everything at rounding, judged against E's scale
+    assert not any(ln.startswith("warning:") for ln in _summary(1e-16, -1e-16, dissipated=1e-16, energy=0.8))
+    # nothing released or dissipated, yet E moved far past rounding: told
+    assert any(ln.startswith("warning:") for ln in _summary(0.0, 5.0, energy=0.8))
 
 
 def test_a_run_near_its_time_step_limit_is_flagged_in_the_summary_and_the_plot(tmp_path, capsys):
@@ -172,7 +178,7 @@ def test_a_run_near_its_time_step_limit_is_flagged_in_the_summary_and_the_plot(t
             k = int(np.argmax(np.abs(b["residual"])))
             assert summary.residual_largest == b["residual"][k] and summary.residual_largest_time == b["time"][k]
     assert len(flagged[0.5]) == 1 and "does not close" in flagged[0.5][0] and "time.dt = 0.5" in flagged[0.5][0]
-    assert "accepts up to 0.567" in flagged[0.5][0], flagged[0.5]
+    assert "accept up to 0.567" in flagged[0.5][0], flagged[0.5]
     assert flagged[0.01] == []
     capsys.readouterr()
     assert cli.main(["plot", str(tmp_path / "dt0.5.h5"), str(tmp_path / "dt0.01.h5"), "--out", str(tmp_path / "figs")]) == 0
@@ -233,3 +239,13 @@ def test_replacing_the_list_without_gravity_or_buoyancy_warns(capsys):
     assert scn.load(None).warnings() == []
     rc, out, err = _check(capsys)
     assert rc == 0 and not err, err
+
+
+def test_a_still_scene_is_not_flagged(tmp_path):
+    """Icebergs floated at rest (z left out: their draft) release and dissipate nothing but
+    rounding; the budget's verdict judges that against the scale of E and says nothing."""
+    text = '[scene]\neffects = ["gravity", "buoyancy", "drag"]\n[time]\nduration = 5.0\n'
+    text += "".join(f"[[iceberg]]\nx = {3.0 * k}\n" for k in range(3))
+    summary = mt.run(scn.loads(text), tmp_path / "still.h5")
+    assert abs(summary.released_largest) < 1e-12 and summary.energy_largest > 0.1
+    assert not any(ln.startswith("warning:") for ln in summary.lines()), summary.lines()
