@@ -124,7 +124,7 @@ class RunSummary:
     dt: float = _doc("the time step, time.dt")
     dt_accepted: float = _doc(
         "the largest time.dt the icebergs' hydrostatics accept, a share of the stability limit 2/omega of the stiffest "
-        "heave (NaN without buoyancy: docs/model.md, 'The largest time step'; bonds and waves may accept less)"
+        "heave (NaN without buoyancy: docs/model.md, 'The largest time step'; an effect's own limit may be smaller)"
     )
 
     def lines(self) -> list[str]:
