@@ -144,10 +144,12 @@ class _Family:
     def look(self) -> list:
         with contextlib.suppress(psutil.NoSuchProcess):
             for p in self.root.children(recursive=True):
-                if p.pid not in self.seen:
-                    with contextlib.suppress(psutil.NoSuchProcess):
-                        self.cmd[p.pid] = " ".join(p.cmdline())
-                        self.seen[p.pid] = p
+                # read each time: a child caught between fork and exec still shows its parent's command
+                with contextlib.suppress(psutil.NoSuchProcess, psutil.AccessDenied):
+                    line = " ".join(p.cmdline())
+                    if "spawn_main" in line or p.pid not in self.cmd:
+                        self.cmd[p.pid] = line
+                    self.seen.setdefault(p.pid, p)
         return list(self.seen.values())
 
     def workers(self) -> list:
