@@ -258,7 +258,7 @@ def test_compiling_is_said_only_when_it_is_and_timed_apart(tmp_path):
     m = re.search(r"in (\d+) steps, ([\d.]+) s wall: ([\d.]+) s .* then (\d+) steps at ([\d,]+) steps/s", cold)
     assert m, cold
     steps, wall, startup, rest, rate = int(m[1]), float(m[2]), float(m[3]), int(m[4]), float(m[5].replace(",", ""))
-    assert steps == 5000 and 0 < rest < steps and startup < wall
+    assert steps == 5000 and 0 < rest < steps and startup <= wall  # both printed to 0.1 s
     assert rate > 1.5 * steps / wall, "steps/s must leave the compiling out"
 
 
