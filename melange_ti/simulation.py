@@ -23,7 +23,7 @@ import tomllib
 
 from . import __version__
 from . import diagnostics as diag
-from .energy import RESIDUAL_TRUSTED, budget_series, budget_verdict, runaway, total_energy  # noqa: F401 (RESIDUAL_TRUSTED: as before)
+from .energy import RESIDUAL_TRUSTED, budget_series, budget_verdict, runaway, total_energy, worst  # noqa: F401 (RESIDUAL_TRUSTED: as before)
 from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
 from .io.hdf5 import COMPLETE_ATTR, FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_diagnostics, read_run, scene_text
@@ -726,7 +726,7 @@ class Simulation:
         except OutputError:
             b = {k: np.zeros(0) for k in ("time", "released", "dissipated", "residual", "energy")}
         res = b["residual"]
-        k = int(np.argmax(~np.isfinite(res))) if (~np.isfinite(res)).any() else int(np.argmax(np.abs(res))) if res.size else 0
+        k = worst(res)
         limit = time_step_limit(self.scene, self.bergs)
         return {
             "residual_largest": float(res[k]) if res.size else 0.0,
