@@ -160,7 +160,7 @@ def child_vulkan(name: str, path: Path, steps: int) -> None:
     runtime.init("vulkan", precision="f64")
     from melange_ti.model import Model
     from melange_ti.physics.data.schema import BodyInt
-    from melange_ti.physics.step import stages
+    from melange_ti.physics import stages
 
     sequential = {
         f"{st.name}.{part.func.__name__}": part.sequential

@@ -61,7 +61,7 @@ def main() -> None:
         subprocess.run([*warm, "--islands", "off"], check=True)
     runtime.init(a.arch, threads=a.threads, precision="f64")
     from melange_ti.model import Model
-    from melange_ti.physics.step import stages
+    from melange_ti.physics import stages
 
     sc = scene.load(None, overrides=[("shelf.count", a.n), ("shelf.tilt", 0.05)])
     one_thread = {

@@ -20,7 +20,7 @@ import os
 os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
 os.environ.setdefault("TI_ENABLE_PYBUF", "0")
 
-__version__ = "0.2.0"
+from .version import __version__
 
 _API = ("load_scene", "run", "extend", "open_run", "validated", "total_energy", "runaway", "Scene")
 _ERRORS = ("SceneError", "RunError", "ArchError", "OutputError", "NumericalError", "ContactOverflow", "Interrupted")

@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from . import __version__
+from .version import __version__
 
 EXIT_INPUT = 2
 EXIT_RUNTIME = 3

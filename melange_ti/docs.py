@@ -359,7 +359,49 @@ def api_page() -> str:
     return "\n".join(out)
 
 
-PAGES = {"scenes.md": scenes_page, "output.md": output_page, "cli.md": cli_page, "api.md": api_page}
+def forms_page() -> str:
+    """Which form of the step runs where: the rules of ``model.FORM_TABLE`` and what they give."""
+    from .model import FORM_TABLE, MAX_GROUPS, Form, choose_form
+
+    out = [
+        GENERATED,
+        "",
+        "# Which form of the step runs",
+        "",
+        "Every form of the step gives the serial form's bits for its contact order; they differ in",
+        "speed only (docs/performance.md measures where they cross). The model chooses one from the",
+        "device, the number of icebergs `n`, the CPU's threads and `contacts.order`, by one table,",
+        "`melange_ti.model.FORM_TABLE`: for each setting in turn the first row whose condition holds",
+        "gives its value. `Model(scene, mode=..., islands=..., device_parts=..., groups=...,",
+        "order=...)` sets one instead (tests and benchmarks do).",
+        "",
+        "| setting | condition | value |",
+        "| --- | --- | --- |",
+    ]
+    for setting, when, _, value in FORM_TABLE:
+        if not callable(value):
+            shown = _default(value)
+        else:
+            shown = f"`min(threads, n - 1, {MAX_GROUPS})`" if setting == "groups" else "as asked"
+        out.append(f"| `{setting}` | {_cell(when)} | {shown} |")
+    out += [
+        "",
+        "What the table gives (`contacts.order = auto`, mode `auto`):",
+        "",
+        "| device | threads | n | " + " | ".join(f.name for f in dataclasses.fields(Form)) + " |",
+        "| --- | --- | --- | " + " | ".join("---" for _ in dataclasses.fields(Form)) + " |",
+    ]
+    machines = [("CPU", True, t) for t in (1, 2, 8)] + [("GPU", False, 0)]
+    for label, cpu, threads in machines:
+        for n in (100, 5000, 100_000):
+            form = choose_form(cpu=cpu, threads=threads, n=n, contacts=True)
+            cells = [_default(getattr(form, f.name)) for f in dataclasses.fields(Form)]
+            out.append(f"| {label} | {threads if cpu else ''} | {n:,} | " + " | ".join(cells) + " |")
+    out.append("")
+    return "\n".join(out)
+
+
+PAGES = {"scenes.md": scenes_page, "output.md": output_page, "cli.md": cli_page, "api.md": api_page, "forms.md": forms_page}
 
 
 def main(argv: list[str] | None = None) -> int:

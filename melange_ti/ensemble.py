@@ -52,8 +52,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from . import __version__
 from . import scene as scn
+from .version import __version__
 
 MANIFEST = "ensemble.json"
 EXIT_OK, EXIT_FAILED = 0, 3

@@ -1,5 +1,7 @@
 """Exceptions the command line turns into one-line messages (no heavy imports here)."""
 
+from typing import Any
+
 
 class RunError(RuntimeError):
     """A run that cannot start or continue (exit status 2)."""
@@ -20,3 +22,25 @@ class ContactOverflow(RuntimeError):
 class Interrupted(KeyboardInterrupt):
     """Ctrl-C (SIGINT) stopped a run at an output event, with a checkpoint written there; the
     message says how far it got and how to continue (exit status 130)."""
+
+
+class SceneError(ValueError):
+    """A scene that cannot be run; the message is one line naming key and value."""
+
+
+def fmt(value: Any) -> str:
+    """A value as an error message shows it: strings quoted, one line."""
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, dict):
+        return "{...}"
+    return one_line(str(value))
+
+
+def one_line(text: str) -> str:
+    """``text`` with line breaks and other control characters escaped."""
+    return text if text.isprintable() else repr(text)[1:-1]
+
+
+def error(key: str, value: Any, why: str) -> SceneError:
+    return SceneError(f"{one_line(key)} = {fmt(value)}: {one_line(why)}")

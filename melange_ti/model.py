@@ -4,7 +4,7 @@ A model owns the arrays the schema describes (:mod:`melange_ti.physics.data.sche
 iceberg, contact slots, candidate lists, the cell list, parameters, counters and
 accumulators). The effect set is fixed when the model is built; without contacts no contact
 array is allocated and no contact kernel runs. The step is the stage list of
-:mod:`melange_ti.physics.step.stages`.
+:mod:`melange_ti.physics.stages`.
 
 For small N on the CPU one kernel call runs many steps with every loop serial (no launch
 cost); for large N each stage is launched as parallel kernels. Both give the same bits; in
@@ -19,7 +19,9 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from dataclasses import make_dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, make_dataclass
+from types import SimpleNamespace
 
 import numpy as np
 import taichi as ti
@@ -27,6 +29,7 @@ import taichi as ti
 from . import runtime  # noqa: F401  (imported for its patch: Taichi reuses source-position text)
 from .errors import ContactOverflow
 from .geometry import disc_radius, mass_properties, polygon_discs
+from .physics import stages
 from .physics.data.schema import (
     ACC_LEDGERS,
     ACCUMULATORS,
@@ -50,8 +53,9 @@ from .physics.data.schema import (
     body_width,
     contact_width,
 )
+from .physics.effects import hosts
 from .physics.forms import colours, device
-from .physics.step import narrow, stages
+from .physics.step import narrow
 from .scene import Icebergs, Scene
 from .scene.keys import ORDERS
 
@@ -70,6 +74,84 @@ CALIBRATE_MIN_N = 2000
 ISLANDS_MIN_THREADS = 4
 MAX_GROUPS = 64  # contiguous groups of the sequential passes at most (physics/forms/groups.py)
 CALIBRATE_STEPS = 8  # timed steps per form, after one untimed step each (compilation)
+
+
+@dataclass(frozen=True)
+class Form:
+    """Which form of the step a model runs. Every form gives the serial form's bits for its
+    contact order (the tests compare them); they differ only in speed."""
+
+    order: str  # the contact passes' order: "sequential", or "coloured" (physics/forms/colours.py)
+    islands: bool  # the parallel form solves islands of touching icebergs side by side (forms/islands.py)
+    device_parts: bool  # the parts a CPU runs on one thread run as parallel block sums (forms/device.py)
+    groups: int  # contiguous groups of the sequential passes solved side by side (forms/groups.py)
+    mode: str  # "serial": many whole steps in one kernel call; "parallel": each stage's parts launched
+    calibrate: bool  # mode "auto": both modes timed at the first advance, the faster kept
+
+
+# The choice of form, as data: for each setting in turn, the first row whose condition holds
+# gives its value (a value may be a function of what is known); an argument of Model other
+# than None (mode: other than "auto") sets it instead. What a row's condition reads: ``cpu``
+# (Taichi's x64 or arm64 backend; else a device: CUDA, Vulkan, Metal), ``threads`` (the CPU's
+# threads), ``n`` (icebergs), ``contacts`` (the scene names collisions or the wall), ``asked``
+# (``contacts.order``), ``auto`` (mode "auto"), and the settings chosen above it. Where the
+# thresholds come from: docs/performance.md; the table as it falls out: docs/forms.md.
+def _grouped(c) -> bool:
+    """Whether the sequential passes can split into contiguous groups (forms/groups.py)."""
+    return c.cpu and c.order == "sequential" and not c.islands and not c.device_parts
+
+
+FORM_TABLE: tuple[tuple[str, str, Callable, object], ...] = (
+    ("order", "no contact to order", lambda c: not c.contacts, "sequential"),
+    ("order", "contacts.order asked for", lambda c: c.asked != "auto", lambda c: c.asked),
+    ("order", "a device", lambda c: not c.cpu, "coloured"),
+    ("order", "the CPU", lambda c: True, "sequential"),
+    ("islands", "a device", lambda c: not c.cpu, True),
+    ("islands", f"the CPU, threads >= {ISLANDS_MIN_THREADS}", lambda c: c.threads >= ISLANDS_MIN_THREADS, True),
+    ("islands", "the CPU, fewer threads", lambda c: True, False),
+    ("device_parts", "a device", lambda c: not c.cpu, True),
+    ("device_parts", "the CPU", lambda c: True, False),
+    ("groups", "the CPU, sequential order, islands and device parts off", lambda c: _grouped(c), lambda c: c.threads),
+    ("groups", "otherwise", lambda c: True, 1),
+    ("mode", f"the CPU, n <= {SERIAL_MAX_N}", lambda c: c.cpu and c.n <= SERIAL_MAX_N, "serial"),
+    ("mode", "otherwise", lambda c: True, "parallel"),
+    (
+        "calibrate",
+        f"mode auto, the CPU, threads > 1, {CALIBRATE_MIN_N} <= n <= {SERIAL_MAX_N}",
+        lambda c: c.auto and c.cpu and c.threads > 1 and CALIBRATE_MIN_N <= c.n <= SERIAL_MAX_N,
+        True,
+    ),
+    ("calibrate", "otherwise", lambda c: True, False),
+)
+
+
+def choose_form(
+    cpu: bool,
+    threads: int,
+    n: int,
+    contacts: bool,
+    order: str = "auto",
+    mode: str = "auto",
+    islands: bool | None = None,
+    device_parts: bool | None = None,
+    groups: int | None = None,
+) -> Form:
+    """The form :data:`FORM_TABLE` gives (``order``, ``mode``: as asked; the rest ``None`` for
+    the table's choice). Groups are at most ``n - 1`` and :data:`MAX_GROUPS`, and exist only
+    where the table's condition for them holds."""
+    given = {"islands": islands, "device_parts": device_parts, "mode": None if mode == "auto" else mode}
+    c = SimpleNamespace(cpu=cpu, threads=threads, n=n, contacts=contacts, asked=order, auto=mode == "auto")
+    for name in (f.name for f in dataclasses.fields(Form)):
+        value = given.get(name)
+        if value is None:
+            rule = next(v for setting, _, when, v in FORM_TABLE if setting == name and when(c))
+            value = rule(c) if callable(rule) else rule
+        setattr(c, name, value)
+    if groups is not None and _grouped(c):
+        c.groups = groups
+    c.groups = max(1, min(int(c.groups), n - 1, MAX_GROUPS)) if _grouped(c) else 1
+    return Form(**{f.name: getattr(c, f.name) for f in dataclasses.fields(Form)})
+
 
 _DTYPES = {"f64": ti.f64, "i32": ti.i32, "i64": ti.i64}
 
@@ -111,44 +193,35 @@ class Model:
         self.np_real = np.float32 if scene.precision == "f32" else np.float64
         self.calibration: dict[str, float] | None = None  # ms/step of each form, if measured
         self._part_times: dict[str, float] | None = None  # per kernel, while profile(parts=True) runs
-        self._calibrate = False
         cfg = ti.lang.impl.current_cfg()
         on_cpu = cfg.arch in (ti.x64, ti.arm64)
         threads = int(cfg.cpu_max_num_threads) if on_cpu else 0
-        # the contact passes' order (contacts.order; physics/forms/colours.py): "auto" is
-        # sequential on the CPU, coloured on a device; with no contact there is nothing to order
-        order = scene.contacts.order if order is None else order
-        if order not in ORDERS:
-            raise ValueError(f"order must be one of {', '.join(ORDERS)}, not {order!r}")
-        coloured = scene.effects.contacts and (order == "coloured" or (order == "auto" and not on_cpu))
-        self.order = "coloured" if coloured else "sequential"
+        asked = scene.contacts.order if order is None else order
+        if asked not in ORDERS:
+            raise ValueError(f"order must be one of {', '.join(ORDERS)}, not {asked!r}")
+        if mode not in ("auto", "serial", "parallel"):
+            raise ValueError(f"mode must be 'auto', 'serial' or 'parallel', not {mode!r}")
+        # which form runs: FORM_TABLE, a row per rule (docs/forms.md lists what it gives)
+        form = choose_form(
+            cpu=on_cpu, threads=threads, n=n, contacts=scene.effects.contacts, order=asked, mode=mode,
+            islands=islands, device_parts=device_parts, groups=groups,
+        )  # fmt: skip
+        self.form = form
+        self.order = form.order
+        coloured = form.order == "coloured"
         # a polygon among the icebergs: every outline is read from its corners (the scene's most)
         vertices = int(bergs.corners.max()) if bergs.outline is not None else 0
         self.fx = dataclasses.replace(scene.effects, coloured=coloured, vertices=vertices)
         self._colours: int | None = None  # colours of the last colouring, once read
-        # the parallel form solves islands side by side where there are threads to pay for
-        # finding them (ISLANDS_MIN_THREADS); both ways give the same bits
-        self.islands = (not on_cpu or threads >= ISLANDS_MIN_THREADS) if islands is None else bool(islands)
-        # off the CPU the parts the CPU runs on one thread run in parallel forms
-        # (physics/forms/device.py); forced on the CPU by tests, where they give the same state
-        self.device_parts = (not on_cpu) if device_parts is None else bool(device_parts)
-        # without islands, the sequential passes split into contiguous groups solved side by
-        # side, one per CPU thread (physics/forms/groups.py; the same bits on any number of groups)
-        if groups is None:
-            groups = threads if on_cpu else 1
-        grouped = on_cpu and not self.islands and not self.device_parts and not coloured
-        self.groups = max(1, min(int(groups), n - 1, MAX_GROUPS)) if grouped else 1
-        if mode == "auto":
-            mode = "serial" if on_cpu and n <= SERIAL_MAX_N else "parallel"
-            # measured at the first advance (serial meanwhile: its allocation, lists included)
-            self._calibrate = on_cpu and threads > 1 and CALIBRATE_MIN_N <= n <= SERIAL_MAX_N
-        if mode not in ("serial", "parallel"):
-            raise ValueError(f"mode must be 'auto', 'serial' or 'parallel', not {mode!r}")
-        self.mode = mode
+        self.islands = form.islands
+        self.device_parts = form.device_parts
+        self.groups = form.groups
+        self.mode = form.mode
+        self._calibrate = form.calibrate  # measured at the first advance (serial meanwhile)
         self.contacts = self.fx.contacts
         # the host side of the effect that owns a table, if the scene names one
         owner = self.fx.owner
-        self.owned = owner.state(scene, self.np_real) if owner is not None else None
+        self.owned = hosts.state(owner, scene, self.np_real) if owner is not None else None
         if self.owned is not None:
             self.owned.model = self
         slots = scene.contacts.max_partners if self.fx.collisions else 1

@@ -21,7 +21,6 @@ from pathlib import Path
 import numpy as np
 import tomllib
 
-from . import __version__
 from . import diagnostics as diag
 from .energy import RESIDUAL_TRUSTED, budget_series, budget_verdict, runaway, total_energy, worst  # noqa: F401 (RESIDUAL_TRUSTED: as before)
 from .errors import Interrupted, NumericalError, RunError
@@ -29,8 +28,9 @@ from .io import checkpoint
 from .io.hdf5 import COMPLETE_ATTR, FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_diagnostics, read_run, scene_text
 from .model import Model
 from .physics.data.schema import BODIES
-from .physics.step.stages import SAMPLE_NAMES
+from .physics.stages import SAMPLE_NAMES
 from .scene import Icebergs, Scene
+from .version import __version__
 
 # Output events between two writes of the model's state run in one launch (Simulation._batch):
 # at most this many, and this many bytes of samples

@@ -4,6 +4,7 @@ it names, and the promise that nothing outside an effect that owns state names i
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 
 import pytest
@@ -15,7 +16,7 @@ PACKAGE = Path(melange_ti.__file__).resolve().parent
 DOC = (PACKAGE.parent / "docs" / "architecture.md").read_text()
 
 # the layers that take everything of an effect from its declaration
-GENERIC = ("model.py", "simulation.py", "io/hdf5.py", "io/checkpoint.py", "api.py", "scene/core.py", "physics/step/stages.py")
+GENERIC = ("model.py", "simulation.py", "io/hdf5.py", "io/checkpoint.py", "api.py", "scene/core.py", "physics/stages.py")
 
 
 def _rooms() -> dict[str, set[str]]:
@@ -68,7 +69,7 @@ def test_every_module_path_the_doc_names_exists():
 
 def test_the_rooms_parser_reads_the_listing():
     rooms = _rooms()
-    assert rooms["step/"] >= {"stages.py", "impulses.py", "correction.py"} and "numerics.py" in rooms
+    assert rooms["step/"] >= {"parts.py", "impulses.py", "correction.py"} and "numerics.py" in rooms and "stages.py" in rooms
 
 
 @pytest.mark.parametrize("effect", OWNERS, ids=lambda e: e.name)
@@ -76,10 +77,13 @@ def test_an_effect_that_owns_state_is_a_package_of_the_files_the_doc_lists(effec
     package = PACKAGE / "physics" / "effects" / effect.name
     for name in ("__init__.py", "host.py", "kernels.py"):
         assert f"`{name}`" in DOC and (package / name).exists(), name
-    # the declaration reaches both by a real import
-    assert effect.state is not None and effect.kernels is not None
-    assert effect.kernels().__file__ == str(package / "kernels.py")
-    assert hasattr(effect.kernels(), "STAGES")
+    # linked by a real import from above: the host side in effects/hosts.py, the kernels in step/terms.py
+    from melange_ti.physics.effects import hosts
+    from melange_ti.physics.step import terms
+
+    assert Path(terms.module(effect).__file__) == package / "kernels.py"
+    assert hasattr(terms.module(effect), "STAGES")
+    assert Path(sys.modules[hosts.STATES[effect.name].__module__].__file__) == package / "host.py"
 
 
 @pytest.mark.parametrize("path", GENERIC)
@@ -94,13 +98,64 @@ def test_the_generic_layers_name_no_effect_that_owns_state(path):
 
 
 def test_terms_are_imported_by_name_not_by_a_string():
-    base = (PACKAGE / "physics" / "effects" / "base.py").read_text()
-    assert "importlib" not in base
+    from melange_ti.physics.step import impulses, terms
+
+    for path in ("physics/effects/base.py", "physics/step/terms.py", "physics/effects/hosts.py"):
+        assert "importlib" not in (PACKAGE / path).read_text()
     for effect in REGISTRY:
-        if effect.terms:
-            module = effect.kernels()
-            for term in effect.terms:
-                assert callable(getattr(module, term)), (effect.name, term)
+        for term in effect.terms:
+            module = impulses.LAWS[effect.name] if term == "impulse" else terms.module(effect)
+            assert callable(getattr(module, term)), (effect.name, term)
+
+
+# ---------------------------------------------------------------- floors: the import graph
+
+
+def test_the_import_graph_has_no_circle():
+    """``python -m melange_ti.imports`` reads every import (inside functions too): none closes a circle."""
+    from melange_ti import imports
+
+    edges = imports.graph()
+    assert len(edges) > 80 and sum(map(len, edges.values())) > 250  # it read the package
+    assert imports.circles(edges) == []
+
+
+def test_the_import_graph_sees_imports_inside_functions_and_for_type_checking(tmp_path):
+    """The reader can fail: a circle closed by an import in a function, or under TYPE_CHECKING, is found."""
+    from melange_ti import imports
+
+    pkg = tmp_path / "pk"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "sub" / "__init__.py").write_text("from .b import B\n")
+    (pkg / "a.py").write_text("from .sub import b\nX = 1\n")
+    (pkg / "sub" / "b.py").write_text("B = 2\n\ndef f():\n    from ..a import X\n    return X\n")
+    (pkg / "c.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .d import D\n")
+    (pkg / "d.py").write_text("from . import c\nD = 3\n")
+    found = imports.circles(imports.graph(pkg))
+    assert ["pk.a", "pk.sub.b"] in found and ["pk.c", "pk.d"] in found
+
+
+def test_the_floors_run_one_way():
+    """The step's serial phases stand below their parallel and device forms (stages.py, above
+    both, puts them together); an effect's declaration imports none of its kernels or host code
+    (they are linked from above: step/terms.py, effects/hosts.py); nothing under physics/ reaches
+    up into the run files, the scene, the model or the run."""
+    from melange_ti import imports
+
+    edges = imports.graph()
+    up = ("melange_ti.io", "melange_ti.scene", "melange_ti.model", "melange_ti.simulation", "melange_ti.api")
+    for module, targets in edges.items():
+        if module.startswith("melange_ti.physics.step."):
+            assert not any(t.startswith("melange_ti.physics.forms") for t in targets), module
+        if module.startswith("melange_ti.physics"):
+            assert not any(t.startswith(up) for t in targets), (module, sorted(t for t in targets if t.startswith(up)))
+    declarations = [f"melange_ti.physics.effects.{e.name}" for e in REGISTRY] + ["melange_ti.physics.effects.base"]
+    for module in declarations:
+        assert module in edges, module
+        low = {t for t in edges[module] if not t.startswith(("melange_ti.physics.effects", "melange_ti.physics.data.columns"))}
+        assert not low - {"melange_ti.geometry"}, (module, low)
+        assert not any(t.endswith((".host", ".kernels", ".hosts")) or ".terms" in t for t in edges[module]), module
 
 
 def test_columns_import_alone():
@@ -143,3 +198,46 @@ def test_a_scene_naming_an_owning_effect_twice_is_not_refused_as_two_owners():
     for effect in OWNERS:
         scene = load(None, [("scene.effects", ["gravity", "buoyancy", effect.name, effect.name])])
         assert getattr(scene.effects, effect.name)
+
+
+# ---------------------------------------------------------------- the choice of form, as data
+
+
+def _rules(cpu, threads, n, contacts, order="auto", mode="auto"):
+    """The choice as Model.__init__ wrote it before the table (its conditions, one by one)."""
+    from melange_ti.model import CALIBRATE_MIN_N, ISLANDS_MIN_THREADS, MAX_GROUPS, SERIAL_MAX_N
+
+    coloured = contacts and (order == "coloured" or (order == "auto" and not cpu))
+    islands = not cpu or threads >= ISLANDS_MIN_THREADS
+    device_parts = not cpu
+    grouped = cpu and not islands and not device_parts and not coloured
+    groups = max(1, min(threads if cpu else 1, n - 1, MAX_GROUPS)) if grouped else 1
+    calibrate = mode == "auto" and cpu and threads > 1 and CALIBRATE_MIN_N <= n <= SERIAL_MAX_N
+    if mode == "auto":
+        mode = "serial" if cpu and n <= SERIAL_MAX_N else "parallel"
+    order = "coloured" if coloured else "sequential"
+    return dict(order=order, islands=islands, device_parts=device_parts, groups=groups, mode=mode, calibrate=calibrate)
+
+
+@pytest.mark.parametrize("order", ["auto", "sequential", "coloured"])
+@pytest.mark.parametrize("mode", ["auto", "serial", "parallel"])
+def test_the_form_table_gives_the_rules_it_replaced(order, mode):
+    import dataclasses
+
+    from melange_ti.model import choose_form
+
+    for cpu, threads in ((True, 1), (True, 2), (True, 3), (True, 4), (True, 16), (False, 0)):
+        for n in (1, 2, 3, 100, 1999, 2000, 50_000, 50_001, 1_000_000):
+            for contacts in (True, False):
+                got = dataclasses.asdict(choose_form(cpu=cpu, threads=threads, n=n, contacts=contacts, order=order, mode=mode))
+                assert got == _rules(cpu, threads, n, contacts, order, mode), (cpu, threads, n, contacts)
+
+
+def test_a_setting_given_to_the_model_overrides_the_table():
+    from melange_ti.model import choose_form
+
+    assert choose_form(cpu=True, threads=2, n=10_000, contacts=True, islands=True).islands
+    assert choose_form(cpu=True, threads=2, n=10_000, contacts=True, islands=True).groups == 1  # groups need islands off
+    assert choose_form(cpu=True, threads=2, n=10_000, contacts=True, groups=5).groups == 5
+    assert choose_form(cpu=True, threads=2, n=4, contacts=True, groups=5).groups == 3  # at most n - 1
+    assert choose_form(cpu=False, threads=0, n=10, contacts=True, device_parts=False).device_parts is False

@@ -235,7 +235,7 @@ def test_auto_mode_calibrates_between_the_thresholds_and_keeps_the_bits():
 def test_profile_times_every_part_and_keeps_the_bits(serial_result, islands, groups):
     """``Model.profile(parts=True)`` (the benchmarks' per-kernel table) times each kernel a
     stage launches inside that stage's time, and steps exactly as ``advance`` does."""
-    from melange_ti.physics.step import stages
+    from melange_ti.physics import stages
 
     sc = scene_mod.loads(scene_text())
     m = Model(sc, mode="parallel", islands=islands, groups=groups)

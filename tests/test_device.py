@@ -21,7 +21,7 @@ import taichi as ti
 
 from melange_ti import runtime
 from melange_ti.errors import ArchError
-from melange_ti.physics.forms import fmath
+from melange_ti.physics import fmath
 
 from .regression.cases import CASES, run_in_subprocesses
 

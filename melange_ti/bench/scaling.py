@@ -42,7 +42,7 @@ def phases() -> tuple[str, ...]:
 
     A function, not a constant, so that importing this module does not import the physics.
     """
-    from ..physics.step.stages import STAGE_NAMES
+    from ..physics.stages import STAGE_NAMES
 
     return (*STAGE_NAMES, "other")
 

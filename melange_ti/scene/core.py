@@ -18,9 +18,10 @@ import numpy as np
 import tomllib
 
 from ..geometry import outline_problem
+from ..io.hdf5 import read_group
 from ..physics.effects import BY_NAME as EFFECT_DECLS
 from ..physics.effects import NAMES as EFFECTS
-from ..physics.effects import PAPER_EFFECTS, Effects, Key
+from ..physics.effects import PAPER_EFFECTS, Effects, Key, hosts
 from . import keys as K
 from .errors import SceneError, error, fmt, one_line, unit_words, with_units
 from .initial import FLOAT, Icebergs, check_geometry, check_time_step, floated, from_run, generate_shelf, with_outlines
@@ -87,6 +88,12 @@ class Scene:
         if floats.any():  # each at its floating draft (given or left out as "float")
             bergs = floated(bergs, floats, self.physics.density_ratio, self.physics.water_level)
         return bergs
+
+    def start_group(self, name: str) -> tuple[dict, Any] | None:
+        """The group ``name`` an effect wrote to the run ``[start]`` begins from, as
+        ``({dataset: values}, snapshot times)``, or ``None`` (for an effect's host code, which
+        stands below the run files and reads them through the scene)."""
+        return read_group(self.start.file, name)
 
     @property
     def source(self) -> dict:
@@ -436,7 +443,7 @@ def from_dict(
     if geometry:
         check_geometry(scene, icebergs)
         for effect in scene.effects.named:  # the checks an effect needs the initial state for
-            bad = effect.check_start(scene, icebergs) if effect.check_start is not None else None
+            bad = hosts.check_start(effect, scene, icebergs)
             if bad is not None:
                 raise error(*bad)
     return scene

@@ -20,16 +20,8 @@ change of ``m_a`` and ``I_a`` over the step) in ``added_mass_work``, so the budg
 from ..data.columns import Column, E
 from .base import Effect, Key
 
-
-def _kernels():
-    from .terms import added_mass
-
-    return added_mass
-
-
 EFFECT = Effect(
     name="added_mass",
-    kernels=_kernels,
     doc="beyond the paper: the water's added mass C_a rho_w A_sub and added inertia C_i rho_w J_sub",
     keys=(
         Key.nonnegative("added_mass", 0.5, "1", "C_a, added-mass coefficient (used with the added_mass effect)"),

@@ -1,15 +1,18 @@
 """What an effect declares: its scene keys, parameter slots, per-body columns and terms.
 
-A declaration imports no Taichi, so the scene, the schema and the run-file readers built
-from it work where Taichi is not installed; the terms are ``@ti.func``s in
-:mod:`melange_ti.physics.effects.terms` (``terms/NAME.py``), imported when a kernel first asks.
+A declaration is data: it imports no Taichi and none of its effect's kernels or host code,
+so the scene, the schema and the run-file readers built from it work where Taichi is not
+installed, and the package's imports run one way (docs/architecture.md, "Floors"). The
+terms are ``@ti.func``s in :mod:`melange_ti.physics.effects.terms` (``terms/NAME.py``; an
+effect that owns state: its package's ``kernels.py``), linked to the effect by name from
+above (:mod:`melange_ti.physics.step.terms`); its host side (``host.py``) likewise
+(:mod:`melange_ti.physics.effects.hosts`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from types import ModuleType
 from typing import Any
 
 from ..data.columns import Column, Table
@@ -102,7 +105,7 @@ class Effect:
     per-iceberg columns in ``b`` (a ``ledger`` column with an ``output`` name is summed into
     that diagnostic and checkpointed; marked ``budget``, it is booked in the energy budget);
     ``terms``: which of :data:`TERMS` it has, each a ``@ti.func`` of that name in
-    ``melange_ti/physics/effects/terms/NAME.py`` (read as ``effect.force`` etc.; ``None`` when absent):
+    ``melange_ti/physics/effects/terms/NAME.py`` (read by :func:`melange_ti.physics.step.terms.term`):
 
     ``force(a, i) -> ti.Vector([f_x, f_z, tau])``
                                                body force and torque on iceberg i
@@ -154,8 +157,6 @@ class Effect:
     ``dims``         the file dimensions it declares, ``{name: meaning}``
     ``check``        ``check(physics, dt) -> (key, value, accepts) | None``: the scene checks
                      its keys need beyond each key's own (called when a scene names it)
-    ``check_start``  ``check_start(scene, icebergs) -> (key, value, accepts) | None``: the
-                     checks that need the initial state (called with the geometry's)
     ``tables``       the arrays of tables it reads from a scene, ``((name, keys, doc), ...)``:
                      ``[[name]]`` entries, each key checked as a scene key's
                      (``Scene.tables``); accepted whether or not the scene names it
@@ -163,12 +164,15 @@ class Effect:
                      gives each, 0 in a run without it)
     ``requires``     effects of which the scene must name at least one with it, and
     ``requires_doc`` why (the refusal's words)
-    ``state``        ``state(scene, np_real) -> State``: its host side (:class:`State`),
-                     made by the model only when the scene names the effect
-    ``kernels``      ``kernels() -> module``: imports its Taichi side, the module holding its
-                     terms (``force`` ... by name) and ``STAGES``: ``((anchor, Stage), ...)``,
-                     each stage run after the step's stage ``anchor`` (``"forces"``, ...,
-                     ``"correction"``: :data:`melange_ti.physics.step.stages.STEP`)
+
+    Its kernels and host code are linked to it by name from the floors above (a declaration
+    imports neither): its Taichi side, the module of its terms and ``STAGES``
+    (``((anchor, Stage), ...)``, each stage run after the step's stage ``anchor``:
+    :data:`melange_ti.physics.stages.STEP`), in :mod:`melange_ti.physics.step.terms`; an
+    effect that owns a table, its host side (a :class:`State`, made by the model only when
+    the scene names the effect) and any check that needs the initial state
+    (``check_start(scene, icebergs) -> (key, value, accepts) | None``), in
+    :mod:`melange_ti.physics.effects.hosts`.
 
     A term is compiled into the kernels only when the scene names the effect
     (``ti.static``), so an effect not named costs nothing; an effect's table, datasets,
@@ -193,20 +197,15 @@ class Effect:
     datasets: tuple[Dataset, ...] = ()
     dims: tuple[tuple[str, str], ...] = ()
     check: Callable | None = None
-    check_start: Callable | None = None
     tables: tuple[tuple[str, tuple[Key, ...], str], ...] = ()
     reports: tuple[Quantity, ...] = ()
     requires: tuple[str, ...] = ()
     requires_doc: str = ""
-    state: Callable | None = None
-    kernels: Callable[[], ModuleType] | None = None
 
     def __post_init__(self):
         unknown = set(self.terms) - set(TERMS)
         if unknown:
             raise ValueError(f"effect {self.name}: unknown terms {sorted(unknown)} (known: {', '.join(TERMS)})")
-        if self.terms and self.kernels is None:
-            raise ValueError(f"effect {self.name}: terms {self.terms} need kernels (the module that holds them)")
         if self.law_ledgers and "impulse" not in self.terms:
             raise ValueError(f"effect {self.name}: law_ledgers are booked from its impulse term, which it lacks")
         own_dims = {name for name, _ in self.dims}
@@ -220,34 +219,13 @@ class Effect:
         """Whether the frozen effect set ``fx`` names this effect (use inside ``ti.static``)."""
         return bool(getattr(fx, self.name))
 
-    def term(self, which: str) -> Callable | None:
-        """The ``@ti.func`` ``which`` of this effect (imports Taichi), or ``None``."""
-        if which not in self.terms:
-            return None
-        return getattr(self.kernels(), which)
-
-    @property
-    def stages(self) -> tuple:
-        """``((anchor, Stage), ...)``: the stages it adds to the step (imports Taichi)."""
-        return getattr(self.kernels(), "STAGES", ()) if self.kernels is not None else ()
-
-    force = property(lambda self: self.term("force"))
-    added_inertia = property(lambda self: self.term("added_inertia"))
-    damp = property(lambda self: self.term("damp"))
-    after_kick = property(lambda self: self.term("after_kick"))
-    post_drift = property(lambda self: self.term("post_drift"))
-    potential = property(lambda self: self.term("potential"))
-    impulse = property(lambda self: self.term("impulse"))
-    joined = property(lambda self: self.term("joined"))
-    joined_wall = property(lambda self: self.term("joined_wall"))
-
 
 TERMS = ("force", "added_inertia", "after_kick", "damp", "post_drift", "potential", "impulse", "joined", "joined_wall")
 
 
 class State:
     """The host side of an effect that owns state, made by the model of a scene that names
-    the effect (``Effect.state``; Oceananigans' ``materialize_free_surface``: a scene without
+    the effect (linked in :mod:`.hosts`; Oceananigans' ``materialize_free_surface``: a scene without
     the effect has none). numpy only; the model moves the arrays.
 
     ``rows``: rows of its table (``Effect.table``); the methods below return what the model

@@ -2,16 +2,8 @@
 
 from .base import Effect
 
-
-def _kernels():
-    from .terms import buoyancy
-
-    return buoyancy
-
-
 EFFECT = Effect(
     name="buoyancy",
-    kernels=_kernels,
     doc="exact hydrostatic force and torque of the submerged part of the outline (rectangle or polygon) under a flat sea surface",
     torque=True,
     terms=("force", "potential"),

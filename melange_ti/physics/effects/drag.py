@@ -8,16 +8,8 @@ booked per body in the ``DRAG_WORK`` ledger (``drag_dissipated``).
 from ..data.columns import Column, E
 from .base import Effect, Key
 
-
-def _kernels():
-    from .terms import drag
-
-    return drag
-
-
 EFFECT = Effect(
     name="drag",
-    kernels=_kernels,
     doc="linear damping of velocity and angular velocity at the given rates",
     keys=(
         Key.nonnegative("drag", 0.01, "1 / sqrt(w/g)", "rate of linear drag on (vx, vz): dv/dt = -drag v (the paper's 0.01)"),

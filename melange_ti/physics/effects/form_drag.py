@@ -18,16 +18,8 @@ step times while ``P`` is constant. ``m`` and ``I`` include the water's added in
 from ..data.columns import Column
 from .base import Effect, Key
 
-
-def _kernels():
-    from .terms import form_drag
-
-    return form_drag
-
-
 EFFECT = Effect(
     name="form_drag",
-    kernels=_kernels,
     doc="beyond the paper: the water's quadratic pressure drag on the submerged part, "
     "F = -0.5 rho_w C_d P(v) |v| v and a matching torque; booked in drag_dissipated",
     keys=(

@@ -17,13 +17,6 @@ Derived in docs/model.md ("Contacts").
 from ..data.columns import Column, E
 from .base import Effect, Key
 
-
-def _kernels():
-    from .terms import friction
-
-    return friction
-
-
 EFFECT = Effect(
     name="friction",
     doc="beyond the paper: Coulomb friction at iceberg-iceberg and wall contacts, |J_t| <= friction * J_n "
@@ -36,7 +29,6 @@ EFFECT = Effect(
     params=(Column("FRICTION", "constant", "1", "Coulomb friction coefficient mu", source="physics.friction"),),
     beyond_paper=True,
     terms=("impulse",),
-    kernels=_kernels,
     law_ledgers=(
         Column(
             "FRICTION",

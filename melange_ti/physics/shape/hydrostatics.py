@@ -18,7 +18,7 @@ the CPU. On the CPU they are the literals, and the code is what it was.
 import taichi as ti
 
 from ..data.schema import Body, Param
-from ..forms.fmath import on_spirv
+from ..fmath import on_spirv
 from ..numerics import FAR
 
 

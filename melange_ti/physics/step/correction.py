@@ -15,7 +15,8 @@ from ..data.schema import Acc, Body, BodyInt, Contact, Param
 from ..numerics import TINY
 from . import wall
 from .forces import contact_mass, potential_energy
-from .impulses import contact, contact_range, in_pass, normal_speed
+from .impulses import contact, contact_range, in_pass
+from .pairs import normal_speed
 
 MAX_CORRECT = 4  # correction sweeps while some overlap is still being pushed apart
 

@@ -12,9 +12,10 @@ step evaluates trigonometric functions.
 
 import taichi as ti
 
+from .. import fmath
 from ..data.schema import Body, Param
 from ..effects import ADDED, AFTER_KICK, DAMPERS, FORCES, POST_DRIFT, POTENTIALS
-from ..forms import fmath
+from .terms import term
 
 HAS_TORQUE = tuple(e for e in FORCES if e.torque)
 HORIZONTAL = tuple(e for e in FORCES if e.horizontal)
@@ -35,7 +36,7 @@ def added_inertia(fx: ti.template(), a: ti.template(), i):
     inertia = a.b[i, Body.INERTIA]
     for e in ti.static(ADDED):
         if ti.static(e.on(fx)):
-            extra = e.added_inertia(a, i)
+            extra = ti.static(term(e, "added_inertia"))(a, i)
             m += extra[0]
             inertia += extra[1]
     return m, inertia
@@ -67,7 +68,7 @@ def kick(fx: ti.template(), a: ti.template(), i):
     own = ti.Vector([0.0, 0.0, 0.0])  # the forces whose effect books its impulses' offset itself
     for e in ti.static(FORCES):
         if ti.static(e.on(fx)):
-            f = e.force(a, i)  # (f_x, f_z, tau)
+            f = ti.static(term(e, "force"))(a, i)  # (f_x, f_z, tau)
             if ti.static(e.horizontal):
                 fxs += f[0]
             fz += f[1]
@@ -83,10 +84,10 @@ def kick(fx: ti.template(), a: ti.template(), i):
         b[i, Body.OM] += dt * tau / inertia
     for e in ti.static(AFTER_KICK):
         if ti.static(e.on(fx)):
-            e.after_kick(a, i)
+            ti.static(term(e, "after_kick"))(a, i)
     for e in ti.static(DAMPERS):
         if ti.static(e.on(fx)):
-            e.damp(a, i, m, inertia)
+            ti.static(term(e, "damp"))(a, i, m, inertia)
     if ti.static(fx.collisions or fx.wall):
         # the kick's change of the velocities, for the impulses' energy booking (impulses.py)
         b[i, Body.KICK_VX] = b[i, Body.VX] - v0[0]
@@ -103,7 +104,7 @@ def kick(fx: ti.template(), a: ti.template(), i):
 @ti.func
 def orient(a: ti.template(), i):
     """Cache cos and sin of body i's tilt: the one place a step evaluates them (in f64 on a
-    SPIR-V device, which has no f64 ``sin``/``cos``, from :mod:`..forms.fmath`)."""
+    SPIR-V device, which has no f64 ``sin``/``cos``, from :mod:`..fmath`)."""
     if ti.static(fmath.needs_own_trig()):
         sn, cs = fmath.sin_cos_f64(a.b[i, Body.TH])
         a.b[i, Body.COS] = cs
@@ -123,7 +124,7 @@ def drift(fx: ti.template(), a: ti.template(), i):
     orient(a, i)
     for e in ti.static(POST_DRIFT):
         if ti.static(e.on(fx)):
-            e.post_drift(a, i)
+            ti.static(term(e, "post_drift"))(a, i)
 
 
 @ti.func
@@ -132,7 +133,7 @@ def potential_energy(fx: ti.template(), a: ti.template(), i):
     u = 0.0
     for e in ti.static(POTENTIALS):
         if ti.static(e.on(fx)):
-            u += e.potential(a, i)
+            u += ti.static(term(e, "potential"))(a, i)
     return u
 
 

@@ -21,9 +21,17 @@ import taichi as ti
 
 from ..data.schema import Acc, Body, BodyInt, Config, Contact, Counter, Param, law_ledgers
 from ..effects import IMPULSE_LAW
-from ..shape.discs import cross2
+from ..effects.terms import friction
 from .broad import outran
-from .forces import contact_mass
+from .pairs import normal_speed, pair_mass, relative_normal
+
+# the effects whose ``impulse`` term replaces the contact law's, by name (their modules stand on
+# .pairs, so they are linked here, above it, not in .terms)
+LAWS = {"friction": friction}
+if {e.name for e in IMPULSE_LAW} - LAWS.keys():
+    raise ImportError(
+        f"effects with an impulse term but no module in {__name__}.LAWS: {sorted({e.name for e in IMPULSE_LAW} - LAWS.keys())}"
+    )
 
 
 def contact_law(fx):
@@ -31,46 +39,12 @@ def contact_law(fx):
     return next((e for e in IMPULSE_LAW if e.on(fx)), None)
 
 
+def law_impulse(fx):
+    """The ``@ti.func`` impulse of the named effect that replaces the contact law's."""
+    return LAWS[contact_law(fx).name].impulse
+
+
 DEEP_FRACTION = 0.1  # a contact still closing by more than this many disc radii runs the pass again
-
-
-@ti.func
-def relative_normal(a: ti.template(), i, j, cx: ti.template(), cz: ti.template(), com: ti.template(), rx1, rz1, rx2, rz2, nx, nz):
-    """Normal relative value at the contact of the velocity-like columns ``cx, cz, com`` of
-    ``b``; j < 0 is the wall (zero)."""
-    b = ti.static(a.b)
-    v1x = b[i, cx] - b[i, com] * rz1
-    v1z = b[i, cz] + b[i, com] * rx1
-    v2x = 0.0
-    v2z = 0.0
-    if j >= 0:
-        v2x = b[j, cx] - b[j, com] * rz2
-        v2z = b[j, cz] + b[j, com] * rx2
-    return (v1x - v2x) * nx + (v1z - v2z) * nz
-
-
-@ti.func
-def normal_speed(a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz):
-    """Normal relative velocity at the contact; j < 0 is the wall (at rest)."""
-    return relative_normal(a, i, j, Body.VX, Body.VZ, Body.OM, rx1, rz1, rx2, rz2, nx, nz)
-
-
-@ti.func
-def pair_mass(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, dx, dz):
-    """The pair's inverse effective mass along the unit direction ``d`` at the contact,
-    ``K = 1/m_1 + 1/m_2 + (r_1 x d)^2 / I_1 + (r_2 x d)^2 / I_2`` (j < 0: the wall, infinite
-    mass), with what :func:`push` needs: ``(K, m_1, I_1, r_1 x d, m_2, I_2, r_2 x d)``."""
-    d = ti.Vector([dx, dz])
-    c1 = cross2(ti.Vector([rx1, rz1]), d)
-    m1, inv1, i1 = contact_mass(fx, a, i)
-    k = inv1 + c1 * c1 / i1
-    c2 = 0.0
-    m2, i2 = 1.0, 1.0
-    if j >= 0:
-        c2 = cross2(ti.Vector([rx2, rz2]), d)
-        m2, inv2, i2 = contact_mass(fx, a, j)
-        k += inv2 + c2 * c2 / i2
-    return k, m1, i1, c1, m2, i2, c2
 
 
 @ti.func
@@ -112,7 +86,7 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
         jn = 0.0
         terms = ti.Vector(ti.static([0.0] * len(law_ledgers(fx))))
         if ti.static(contact_law(fx) in IMPULSE_LAW):
-            impulse = ti.static(contact_law(fx).impulse)
+            impulse = ti.static(law_impulse(fx))
             jn, terms = impulse(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, kk, m1, i1, a1, m2, i2, a2, kick_vn)
         else:
             jn = -(1.0 + e) * vn / kk

@@ -29,6 +29,7 @@ from ..shape.faces import FACE_BITS, FACES, boxes_apart, face_in_j, face_spacing
 from ..shape.hydrostatics import halves, polygons
 from . import wall
 from .broad import cell_size, margin, reach
+from .terms import term as term_of
 
 # Candidate lists: partners kept per body, disc pairs kept per partner, and the skin (a
 # fraction of the smaller disc radius) added to the touching distance.
@@ -383,11 +384,11 @@ def detect(fx: ti.template(), a: ti.template(), i, size):
 
 @ti.func
 def held(fx: ti.template(), a: ti.template(), i, j) -> ti.i32:
-    """1 if a named effect holds the pair's contact (``Effect.joined``: an intact bond)."""
+    """1 if a named effect holds the pair's contact (its ``joined`` term: an intact bond)."""
     out = 0
     for e in ti.static(JOINED):
         if ti.static(e.on(fx)):
-            out = out | e.joined(a, i, j)
+            out = out | ti.static(term_of(e, "joined"))(a, i, j)
     return out
 
 
@@ -397,7 +398,7 @@ def held_wall(fx: ti.template(), a: ti.template(), i) -> ti.i32:
     out = 0
     for e in ti.static(JOINED_WALL):
         if ti.static(e.on(fx)):
-            out = out | e.joined_wall(a, i)
+            out = out | ti.static(term_of(e, "joined_wall"))(a, i)
     return out
 
 

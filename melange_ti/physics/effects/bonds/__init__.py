@@ -135,24 +135,6 @@ PHYSICAL = (
 )
 
 
-def _kernels():
-    from . import kernels
-
-    return kernels
-
-
-def _state(scene, np_real):
-    from .host import BondState
-
-    return BondState(scene, np_real)
-
-
-def _check_start(scene, icebergs):
-    from .host import check_start
-
-    return check_start(scene, icebergs)
-
-
 BOND_KEYS = (
     Key("a", -1, "1", "0-based index of an [[iceberg]] table", lambda v: v >= 0, "must be >= 0"),
     Key("b", -1, "1", "0-based index of another [[iceberg]] table that touches it at t = 0", lambda v: v >= 0, "must be >= 0"),
@@ -312,9 +294,6 @@ EFFECT = Effect(
         ),
     ),
     tables=(("bond", BOND_KEYS, "two [[iceberg]] tables glued along the face they share at t = 0 (bonds effect)"),),
-    check_start=_check_start,
-    state=_state,
-    kernels=_kernels,
 )
 
 

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from ....errors import error
 from ....geometry import faces, mass_properties
 from ..base import State
 from . import GEOMETRY, MAX_BONDS, MIN_OVERLAP, POISSON, REST, TABLE, TOUCH, Bond, weibull_scale
@@ -309,10 +310,8 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
 # ---------------------------------------------------------------- a [start] from a bonded run
 
 
-def _read_start(path: str):
-    from ....io.hdf5 import read_group
-
-    got = read_group(path, "bonds")
+def _read_start(scene):
+    got = scene.start_group("bonds")  # read by the scene, which stands above the run files
     if got is None:
         return None
     group, times = got
@@ -323,7 +322,7 @@ def _start_table(scene, bergs) -> np.ndarray:
     """The bonds of the run a ``[start]`` begins from, those intact at its time, with their
     rest geometry (a bond stays at rest in the state it formed in) and the material of the
     scene's own keys."""
-    got = _read_start(scene.start.file)
+    got = _read_start(scene)
     if got is None:
         return build(scene, bergs, [])
     # intact in the snapshot the state is taken from (the last at or before start.time): a
@@ -415,8 +414,6 @@ class BondState(State):
         else:
             pair_list, bad = pairs(scene, bergs)
             if bad is not None:  # the scene's check refuses it first; a scene built around it
-                from ....scene.errors import error
-
                 raise error(*bad)
             self.table0 = build(scene, bergs, pair_list)
         self.count = int(np.sum(self.table0[:, Bond.A] >= 0))

@@ -4,7 +4,7 @@ with Coulomb's cone, in place of the frictionless one of :func:`...step.impulses
 import taichi as ti
 
 from ...data.schema import Body, Param
-from ...step.impulses import pair_mass, relative_normal
+from ...step.pairs import pair_mass, relative_normal
 
 # Bisection steps for the restitution an impact may keep without creating energy (the kinetic
 # energy change changes sign once over [0, e]: docs/model.md, "An impact never creates energy");

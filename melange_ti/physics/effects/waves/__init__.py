@@ -92,7 +92,12 @@ TABLE = Table(
     (
         Column("ETA", "state", "w", "sea surface height above the still water line at the cell's centre", "eta"),
         Column("PHI", "state", "w sqrt(g w)", "velocity potential at the surface"),
-        Column("GPHI", "cache", "w / sqrt(w/g)", "G phi, the surface's vertical velocity without sources (set when a wave step closes: of phi before the next opening's kick)"),
+        Column(
+            "GPHI",
+            "cache",
+            "w / sqrt(w/g)",
+            "G phi, the surface's vertical velocity without sources (set when a wave step closes: of phi before the next opening's kick)",
+        ),
         Column(
             "SRC",
             "state",
@@ -124,18 +129,6 @@ TABLE = Table(
     ),
     Wave,
 )
-
-
-def _state(scene, np_real):
-    from .host import WaveGrid
-
-    return WaveGrid(scene, np_real)
-
-
-def _kernels():
-    from . import kernels
-
-    return kernels
 
 
 EFFECT = Effect(
@@ -171,7 +164,9 @@ EFFECT = Effect(
         Column("WAVE_Q", "constant", "w", "what each iceberg adds to a cell is rounded to a multiple of this"),
     ),
     body_columns=(
-        Column("PUSH_X", "state", "w", "waves: the overlap correction's pushes since the wave step opened, x (they move no water)"),
+        Column(
+            "PUSH_X", "state", "w", "waves: the overlap correction's pushes since the wave step opened, x (they move no water)"
+        ),
         Column("PUSH_Z", "state", "w", "waves: the same, z"),
     ),
     terms=("force",),
@@ -215,8 +210,6 @@ EFFECT = Effect(
         ),
     ),
     check=lambda physics, dt: check(physics, dt),
-    state=_state,
-    kernels=_kernels,
 )
 
 

@@ -19,12 +19,12 @@ and run in one of two forms that give the same bits:
   (no launch cost: the form for small N on the CPU);
 - **parallel**: each stage's parts launched as kernels (:func:`run_part`), their outer loop
   parallel (over bodies, or over islands for the impulse pass and the correction's sweeps:
-  :mod:`..forms.islands`; with islands off, over contiguous groups of bodies: :mod:`..forms.groups`),
+  :mod:`.forms.islands`; with islands off, over contiguous groups of bodies: :mod:`.forms.groups`),
   except the parts that must be sequential (``sequential``: the cell
   scan, finding the islands, adding the energy terms to the run-wide sums in order). :class:`melange_ti.model.Model` walks
   :data:`STEP` and can time every stage (:meth:`Model.profile`, like Box2D's profile).
 
-Kernels take the model's ndarrays (:class:`..data.schema.Arrays`) and the frozen effect set ``fx``
+Kernels take the model's ndarrays (:class:`.data.schema.Arrays`) and the frozen effect set ``fx``
 as a template, so they compile once per effect set and precision and serve every model of
 any size; parameters such as ``dt`` are read at run time from ``par``. Every term is guarded
 by ``ti.static``: an effect the scene does not name is not compiled, and a part it does not
@@ -35,11 +35,11 @@ from dataclasses import replace
 
 import taichi as ti
 
-from ..data.schema import ACCUMULATORS, BODIES, COUNTERS, Arrays, Counter, allocated
-from ..effects import REGISTRY
-from ..forms import colours, device, groups, islands
-from . import broad, correction, forces, impulses, narrow
-from .parts import Part, Rounds, Stage, always, collisions, contacts  # noqa: F401  (the step's vocabulary)
+from .data.schema import ACCUMULATORS, BODIES, COUNTERS, Arrays, Counter, allocated
+from .effects import REGISTRY
+from .forms import colours, device, groups, islands
+from .step import broad, correction, forces, impulses, narrow, terms
+from .step.parts import Part, Rounds, Stage, always, collisions, contacts  # noqa: F401  (the step's vocabulary)
 
 MAX_DETECT = 16  # rounds of (detection,) impulse pass and check per step
 
@@ -167,12 +167,12 @@ CORRECTION = Stage(
 
 
 def _with_effects(base: tuple) -> tuple:
-    """``base`` with every effect's own stages (``Effect.stages``: ``(anchor, Stage)``) after
-    the stage they name (``"start"``: before the first), in the registry's order; each runs only when the scene names its
-    effect."""
+    """``base`` with every effect's own stages (``(anchor, Stage)``: :func:`.step.terms.stages`)
+    after the stage they name (``"start"``: before the first), in the registry's order; each
+    runs only when the scene names its effect."""
     step = list(base)
     for effect in REGISTRY:
-        for anchor, stage in effect.stages:
+        for anchor, stage in terms.stages(effect):
             if anchor == "start":  # before the step's first stage
                 at = -1
                 while at + 1 < len(step) and getattr(step[at + 1], "owner", None) is not None:
