@@ -52,6 +52,7 @@ from .physics.data.schema import (
     Param,
     body_width,
     contact_width,
+    own_rows,
 )
 from .physics.effects import hosts
 from .physics.forms import colours, device
@@ -219,11 +220,16 @@ class Model:
         self.mode = form.mode
         self._calibrate = form.calibrate  # measured at the first advance (serial meanwhile)
         self.contacts = self.fx.contacts
-        # the host side of the effect that owns a table, if the scene names one
-        owner = self.fx.owner
-        self.owned = hosts.state(owner, scene, self.np_real) if owner is not None else None
-        if self.owned is not None:
-            self.owned.model = self
+        # the host side of every named effect that owns a table; their rows stacked in one
+        # table, a.own, in the registry's order, each from its first row (docs/architecture.md)
+        self.owned = {e.name: hosts.state(e, scene, self.np_real) for e in self.fx.owners}
+        self._own_size = {e.name: e.table.size for e in self.fx.owners}
+        first = 0
+        for state in self.owned.values():
+            state.model = self
+            state.first_row = first
+            first += state.rows
+        own_shape = (first, max(self._own_size.values())) if self.owned else (1, 1)
         slots = scene.contacts.max_partners if self.fx.collisions else 1
         ncells = 1 << max(2, math.ceil(math.log2(max(n, 4)))) if self.fx.collisions else 4
         # candidate lists for the narrow phase, in both forms: the same contacts bit for bit,
@@ -251,7 +257,7 @@ class Model:
             cnt=alloc(COUNTERS),
             acc=alloc(ACCUMULATORS),
             red=ti.ndarray(ti.f64, shape=(device.red_rows(n, ncells) if self.device_parts else 1, device.RED_WIDTH)),
-            own=ti.ndarray(self.real, shape=(self.owned.rows, owner.table.size) if self.owned is not None else (1, 1)),
+            own=ti.ndarray(self.real, shape=own_shape),
         )
         # where :meth:`sample` puts what it fetches (numpy: the kernel writes it in place)
         self._out, self._out_acc, self._out_cnt = self._sample_buffers(1, table=False)
@@ -280,8 +286,8 @@ class Model:
         rows[:, Body.BOUND] = bound
         for name, col in BODIES.outputs("state").items():
             rows[:, col] = getattr(bergs, name)
-        if self.owned is not None:  # the owning effect's per-iceberg columns
-            self.owned.bodies(rows)
+        for state in self.owned.values():  # the owning effects' per-iceberg columns
+            state.bodies(rows)
         m_real = mass.astype(self.np_real)
         rows[:, Body.INV_MASS] = self.np_real(1.0) / m_real  # as the device would round it
         a.b.from_numpy(rows.astype(self.np_real))
@@ -299,8 +305,9 @@ class Model:
         par[Param.EPS] = float(np.finfo(self.np_real).eps)
         par[Param.SIX] = 6.0
         par[Param.TWELVE] = 12.0
-        for name, value in (self.owned.params() if self.owned is not None else {}).items():
-            par[getattr(Param, name)] = value
+        for state in self.owned.values():
+            for name, value in state.params().items():
+                par[getattr(Param, name)] = value
         a.par.from_numpy(par.astype(self.np_real))
         a.scr.from_numpy(np.zeros(a.scr.shape, dtype=self.np_real))
         a.acc.from_numpy(np.zeros(ACCUMULATORS.size))
@@ -316,22 +323,33 @@ class Model:
         cfg[Config.LISTS] = int(self.lists)
         cfg[Config.GROUPS] = self.groups
         cfg[Config.ID_BITS] = colours.id_bits(n, slots)
-        for name, value in (self.owned.config() if self.owned is not None else {}).items():
-            cfg[getattr(Config, name)] = value
+        own = np.zeros(own_shape, dtype=self.np_real)
+        for e in self.fx.owners:
+            state = self.owned[e.name]
+            for name, value in state.config().items():
+                cfg[getattr(Config, name)] = value
+            row0, count = own_rows(e)
+            cfg[row0], cfg[count] = state.first_row, state.rows
+            own[state.first_row : state.first_row + state.rows, : e.table.size] = state.initial()
         a.cfg.from_numpy(cfg)
-        a.own.from_numpy(self.owned.initial() if self.owned is not None else np.zeros((1, 1), dtype=self.np_real))
+        a.own.from_numpy(own)
 
     def effect(self, name: str):
         """The host side (:class:`~melange_ti.physics.effects.State`) of the named effect that
         owns state (its methods: the effect's ``host.py``; docs/architecture.md). ``KeyError``
         if the model has none by that name."""
-        if self.owned is None or self.fx.owner.name != name:
+        if name not in self.owned:
             raise KeyError(f"the model's scene names no effect {name!r} that owns state")
-        return self.owned
+        return self.owned[name]
 
-    def own_rows(self) -> np.ndarray:
-        """The owning effect's table (``a.own``) as numpy."""
-        return self.arrays.own.to_numpy()
+    def own_rows(self, name: str | None = None, table: np.ndarray | None = None) -> np.ndarray:
+        """The owners' table (``a.own``) as numpy, or with ``name`` that effect's rows and
+        columns of it (of ``table``, a copy of it, if given)."""
+        whole = self.arrays.own.to_numpy() if table is None else table
+        if name is None:
+            return whole
+        state = self.effect(name)
+        return whole[state.first_row : state.first_row + state.rows, : self._own_size[name]]
 
     # ------------------------------------------------------------------ host side
     def _rows(self) -> np.ndarray:
@@ -404,7 +422,7 @@ class Model:
         )
         if not table:
             return bufs
-        shape = self.arrays.own.shape if self.owned is not None else (1, 1)
+        shape = self.arrays.own.shape
         return (*bufs, np.zeros((count, *shape), dtype=self.np_real))
 
     def _unpack(self, out, out_acc, out_cnt, out_own, k: int) -> tuple[dict[str, np.ndarray], Totals]:
@@ -413,8 +431,10 @@ class Model:
         sample = {name: out[k, :, q].copy() for q, name in enumerate(stages.SAMPLE_NAMES)}
         if self.axis is not None:  # polygons: the principal axes the capsize angle is measured by
             sample["axis"] = self.axis
-        if self.owned is not None:
-            sample.update(self.owned.sample(self.own_rows() if out_own is None else out_own[k], sample))
+        if self.owned:
+            whole = self.own_rows() if out_own is None else out_own[k]
+            for name, state in self.owned.items():
+                sample.update(state.sample(self.own_rows(name, whole), sample))
         return sample, self._totals(out_acc[k], out_cnt[k])
 
     def totals(self) -> Totals:
@@ -433,8 +453,9 @@ class Model:
             out[f"carried_{name}"] = rows[:, col].copy() if col < rows.shape[1] else np.zeros(self.n)
         out["acc"] = self.arrays.acc.to_numpy()
         out["counters"] = self.arrays.cnt.to_numpy()
-        if self.owned is not None:  # the owning effect's whole table, under its name
-            out[self.fx.owner.name] = self.own_rows()
+        if self.owned:  # each owning effect's rows of the owners' table, under its name
+            whole = self.own_rows()
+            out.update({name: self.own_rows(name, whole).copy() for name in self.owned})
         return out
 
     def set_accumulators(self, acc: dict[str, np.ndarray]) -> None:
@@ -451,8 +472,11 @@ class Model:
         stored = np.asarray(acc["counters"], dtype=np.int64)[: COUNTERS.size]
         counters[: stored.size] = stored  # a checkpoint from before a counter was added
         self.arrays.cnt.from_numpy(counters)
-        if self.owned is not None:
-            self.arrays.own.from_numpy(np.asarray(acc[self.fx.owner.name], dtype=self.np_real))
+        if self.owned:
+            whole = self.own_rows()
+            for name in self.owned:
+                self.own_rows(name, whole)[...] = np.asarray(acc[name], dtype=self.np_real)
+            self.arrays.own.from_numpy(whole)
 
     def clear_candidate_lists(self) -> None:
         """Forget the narrow phase's candidate lists: the next detection searches every pair

@@ -458,8 +458,12 @@ class Simulation:
                     raise OutputError(f"{self.ckpt}: cannot remove an earlier run's checkpoint ({exc.strerror})") from None
             if self.out.exists():
                 self.out.unlink()
-            own = model.owned
-            own = {"dims": own.dims(), "constants": own.constants()} if own is not None else None
+            own = None
+            if model.owned:  # every owning effect's dimensions and datasets written once
+                own = {"dims": {}, "constants": {}}
+                for state in model.owned.values():
+                    own["dims"].update(state.dims())
+                    own["constants"].update(state.constants())
             writer = RunWriter(self.out, attrs, model.constants(), dtype, own=own, diagnostics=self.diagnostics.names)
         self.writer = writer
         self.total_mass = float(model.constants()["mass"].sum())
@@ -576,7 +580,7 @@ class Simulation:
         model itself is due (a snapshot or checkpoint: ``from_sample`` false) or the end,
         at most ``BATCH_MAX`` events and ``BATCH_BYTES`` of samples."""
         per_event = 8 * self.model.n * len(SAMPLE_NAMES)
-        if self.model.owned is not None:  # and a copy of the owning effect's table per event
+        if self.model.owned:  # and a copy of the owners' table per event
             per_event += 8 * int(np.prod(self.model.arrays.own.shape))
         cap = max(1, min(BATCH_MAX, BATCH_BYTES // per_event))
         stops = []

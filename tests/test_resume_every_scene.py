@@ -2,8 +2,9 @@
 
 Every body shape and every effect that carries state beyond the icebergs' rows: polygons
 given by their corners beside a rectangle (with friction), a shelf cut by leaning faces and
-bonded across them (bonds breaking: the bonds' table), rectangles bonded into a shelf, and
-polygons in waves (the waves' grid and the wave step's phase). Each scene is run three ways:
+bonded across them (bonds breaking: the bonds' table), rectangles bonded into a shelf (on
+their own, and in waves: both tables side by side), and polygons in waves (the waves' grid
+and the wave step's phase). Each scene is run three ways:
 straight to ``T2``; to ``T1`` (off the snapshot and diagnostic grids) and then extended to
 ``T2`` with :func:`melange_ti.extend`; and stopped by Ctrl-C on the way to ``T2``, then
 resumed. Both continued files must equal the straight one in every dataset, bit for bit.
@@ -59,6 +60,9 @@ SCENES = {
         + "[[iceberg]]\nx = 5.8\nz = -0.55\ntheta = 0.2\nvx = -1.0\nwidth = 1.0\nthickness = 1.4\n"
         + "".join(f"[[bond]]\na = {a}\nb = {a + 1}\n" for a in range(3))
     ),
+    # the bonded row struck apart in waves: two owners' tables side by side (the grid's rows,
+    # then the bonds')
+    "bonded_row_waves": None,  # below: the bonded row with the waves' keys
     # polygons in waves: the grid's surface and potential, and the wave step's phase
     "polygons_waves": (
         '[scene]\nname = "waves"\neffects = ["gravity", "buoyancy", "drag", "collisions", "wall", "waves"]\n'
@@ -68,6 +72,11 @@ SCENES = {
         "[[iceberg]]\nx = 4.0\nz = -0.55\ntheta = 0.3\nwidth = 1.0\nthickness = 1.4\n"
     ),
 }
+SCENES["bonded_row_waves"] = (
+    SCENES["bonded_row"]
+    .replace('"bonds"]', '"bonds", "waves"]')
+    .replace("[physics]\n", "[physics]\nwater_depth = 4.0\nwave_dx = 0.25\nwave_end = 30.0\nwave_sponge = 8.0\n")
+)
 
 
 def differing(path, ref: dict) -> list[str]:

@@ -223,9 +223,6 @@ def _scene_table(doc: dict) -> dict:
         needs = EFFECT_DECLS[e].requires
         if needs and not set(needs) & set(effects):
             raise error("scene.effects", effects, f"{EFFECT_DECLS[e].requires_doc}: name {' or '.join(needs)} too")
-    owners = list(dict.fromkeys(e for e in effects if EFFECT_DECLS[e].table is not None))
-    if len(owners) > 1:
-        raise error("scene.effects", effects, f"{' and '.join(owners)} each own a table; a scene names at most one of them")
     precision = t.get("precision", "f64")
     if precision not in ("f32", "f64"):
         raise error("scene.precision", precision, 'must be "f32" or "f64"')

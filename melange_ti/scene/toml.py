@@ -19,7 +19,7 @@ def _toml_value(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, float):
-        return repr(v)
+        return repr(float(v))  # a numpy float too (numpy 2 writes np.float64(...) as its repr)
     if isinstance(v, int):
         return str(v)
     if isinstance(v, str):

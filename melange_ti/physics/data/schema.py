@@ -296,6 +296,12 @@ CONFIG = Table(
         Column("GROUPS", "config", "1", "parallel form without islands: contiguous groups the sequential passes split into"),
         Column("ID_BITS", "config", "1", "coloured passes: bits of a contact's number, i (SLOTS + 1) + slot"),
         *(dataclasses.replace(c, owner=e.name) for e in REGISTRY for c in e.config),
+        # the owners' rows stacked in one table, a.own (registry order; docs/architecture.md)
+        *(
+            Column(f"{e.name.upper()}_{what}", "config", "1", f"{e.name}: {doc} in the owners' table a.own", owner=e.name)
+            for e in OWNERS
+            for what, doc in (("ROW0", "its first row"), ("ROWS", "its rows"))
+        ),
     ),
     Config,
 )
@@ -494,3 +500,9 @@ BODY_CARRIED = {c.name: k for k, c in enumerate(BODIES.columns) if c.role == "st
 ACC_LEDGERS = ACCUMULATORS.outputs("ledger")
 # energy ledgers close the budget: E(0) - E(t) = their sum (marked ``budget`` in the tables)
 ENERGY_LEDGERS = tuple(c.output for t in (BODIES, ACCUMULATORS) for c in t.columns if c.budget)
+
+
+def own_rows(effect) -> tuple[int, int]:
+    """The ``cfg`` slots of an owning effect's first row and row count in the owners' stacked
+    table (``a.own``): its kernels read its rows from the one, as many as the other."""
+    return getattr(Config, f"{effect.name.upper()}_ROW0"), getattr(Config, f"{effect.name.upper()}_ROWS")

@@ -43,6 +43,10 @@ IMPULSE_LAW = tuple(e for e in REGISTRY if "impulse" in e.terms)  # effects that
 JOINED = tuple(e for e in REGISTRY if "joined" in e.terms)  # effects that hold a pair's contact (bonds)
 JOINED_WALL = tuple(e for e in REGISTRY if "joined_wall" in e.terms)
 OWNERS = tuple(e for e in REGISTRY if e.table is not None)  # effects that own a table (``a.own``)
+# an owner whose kernels index its rows from 0 (``rows_first``) must come first among them: its
+# rows then start the stacked table whatever else a scene names
+if any(e.rows_first for e in OWNERS[1:]):
+    raise ImportError(f"only the first effect that owns a table may index its rows from 0: {[e.name for e in OWNERS]}")
 
 
 def _contacts(self) -> bool:
@@ -54,9 +58,10 @@ def _names(self) -> list[str]:
     return [n for n in NAMES if getattr(self, n)]
 
 
-def _owner(self) -> Effect | None:
-    """The named effect that owns a table (``a.own``), or ``None`` (at most one: the scene's check)."""
-    return next((e for e in OWNERS if getattr(self, e.name)), None)
+def _owners(self) -> tuple[Effect, ...]:
+    """The named effects that own a table, in the registry's order: their rows are stacked in
+    that order in the model's one owners' table ``a.own`` (docs/architecture.md)."""
+    return tuple(e for e in OWNERS if getattr(self, e.name))
 
 
 def _named(self) -> tuple[Effect, ...]:
@@ -70,8 +75,8 @@ Effects = make_dataclass(
     frozen=True,
     namespace={
         "contacts": property(_contacts),
-        "owner": property(_owner),
-        "owns": property(lambda self: _owner(self) is not None),
+        "owners": property(_owners),
+        "owns": property(lambda self: bool(_owners(self))),
         "named": property(_named),
         "names": _names,
         "__doc__": "Which effects are compiled into the model, and ``coloured``: the contact passes run colour by "

@@ -142,8 +142,13 @@ class Effect:
 
     An effect may own state beyond the icebergs' rows (the waves' grid), declared here:
 
-    ``table``        its own array (a :class:`Table`, kernels index it as ``a.own`` with the
-                     table's namespace; one effect that owns a table per scene)
+    ``table``        its own table (a :class:`Table`, with its own namespace): its rows in the
+                     model's owners' table ``a.own``, stacked with those of every other named
+                     effect that owns one, in the registry's order; its kernels read its first
+                     row and row count from ``cfg`` (:func:`..data.schema.own_rows`)
+    ``rows_first``   its kernels index its rows from 0 (the waves' grid): it must be the first
+                     effect that owns a table in the registry (checked at import), so its rows
+                     start the stacked table whatever else the scene names
     ``config``       its integer settings in ``cfg`` (filled by its ``State``)
     ``run_ledgers``  its run-wide ledgers in ``acc`` (f64; a ``budget`` one is booked in the
                      energy budget, with its diagnostic, file variable and checkpoint)
@@ -190,6 +195,7 @@ class Effect:
     own_offset: bool = False
     beyond_paper: bool = False
     table: Table | None = None
+    rows_first: bool = False
     config: tuple[Column, ...] = ()
     run_ledgers: tuple[Column, ...] = ()
     law_ledgers: tuple[Column, ...] = ()
@@ -234,6 +240,7 @@ class State:
 
     rows: int = 1
     model: Any = None  # the model it belongs to (set by the model)
+    first_row: int = 0  # its first row in the owners' table a.own (set by the model)
 
     def params(self) -> dict[str, float]:
         """Values of its parameter slots that no scene key gives (``{column name: value}``)."""

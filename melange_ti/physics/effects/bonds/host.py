@@ -427,8 +427,8 @@ class BondState(State):
         s, _ = slots(self.n, self.table0)
         from ...data.schema import Body
 
-        for k in range(MAX_BONDS):
-            rows[:, Body.BOND_1 + k] = s[:, k]
+        for k in range(MAX_BONDS):  # a bond's row plus 1 in the owners' table (0: none)
+            rows[:, Body.BOND_1 + k] = np.where(s[:, k] > 0, s[:, k] + self.first_row, 0.0)
 
     def dims(self) -> dict[str, int]:
         return {"bond": self.count, "bond_rest": len(REST)}

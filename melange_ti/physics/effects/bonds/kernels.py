@@ -10,7 +10,7 @@ in :mod:`melange_ti.physics.effects.bonds`.
 
 import taichi as ti
 
-from ...data.schema import Body, Param
+from ...data.schema import Body, Config, Param
 from ...step.parts import Part, Stage, contacts
 from . import MAX_BONDS, Bond
 
@@ -117,9 +117,18 @@ def update(a: ti.template(), r):
 
 
 @ti.func
+def rows(a: ti.template()):
+    """The bond table's rows in the owners' table ``a.own``: ``range(lo, hi)`` (after the rows of
+    any owner before the bonds in the registry; docs/architecture.md)."""
+    lo = ti.cast(a.cfg[Config.BONDS_ROW0], ti.i32)
+    return lo, lo + ti.cast(a.cfg[Config.BONDS_ROWS], ti.i32)
+
+
+@ti.func
 def update_all(fx: ti.template(), a: ti.template()):
     """The stage: every bond (parallel over bonds in the parallel forms)."""
-    for r in range(a.own.shape[0]):
+    lo, hi = rows(a)
+    for r in range(lo, hi):
         update(a, r)
 
 
@@ -226,14 +235,16 @@ def held_energy(a: ti.template(), r):
 def before_correction(fx: ti.template(), a: ti.template()):
     """Every bond's energy before the overlap correction moves the icebergs (``REL`` holds it
     until :func:`after_correction`; the bonds that broke this step were booked already)."""
-    for r in range(a.own.shape[0]):
+    lo, hi = rows(a)
+    for r in range(lo, hi):
         a.own[r, Bond.CORR] = held_energy(a, r)
 
 
 @ti.func
 def after_correction(fx: ti.template(), a: ti.template()):
     """What the correction put into each bond, ``CORR`` (before minus after)."""
-    for r in range(a.own.shape[0]):
+    lo, hi = rows(a)
+    for r in range(lo, hi):
         a.own[r, Bond.CORR] -= held_energy(a, r)
 
 

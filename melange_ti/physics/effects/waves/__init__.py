@@ -173,6 +173,7 @@ EFFECT = Effect(
     torque=True,
     horizontal=True,
     beyond_paper=True,
+    rows_first=True,  # the grid's kernels index its cells from row 0
     table=TABLE,
     config=(
         Column("WAVE_CELLS", "config", "1", "waves: cells of the wave grid, M (a power of 2)"),
