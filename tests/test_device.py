@@ -316,6 +316,35 @@ def test_waves_on_vulkan_match_the_cpu(tmp_path):
 
 @pytest.mark.gpu
 @needs_vulkan
+def test_bonds_and_waves_on_vulkan_match_the_cpu(tmp_path):
+    """Two effects that own a table in one scene on the device: two bonded pairs of blocks,
+    released tilted, rocking in waves apart from each other (the grid's rows, then the
+    bonds', in one table: docs/architecture.md), f64, every dataset within 1e-12 of the CPU,
+    the surface and the bonds' energy included."""
+    z = -0.8946 + 0.5
+    bergs = "".join(
+        f"[[iceberg]]\nx = {x0 + d * 0.998:.6f}\nz = {z + d * 0.0628:.6f}\ntheta = 0.0628\nthickness = 1.0\n"
+        for x0 in (10.0, 20.0)
+        for d in (-0.5, 0.5)
+    )
+    text = (
+        '[scene]\neffects = ["gravity", "buoyancy", "bonds", "waves"]\n'
+        "[physics]\nwave_end = 40.0\nwave_sponge = 10.0\nwave_dx = 0.125\n"
+        "[time]\ndt = 0.01\nduration = 1.0\n[output]\nsnapshot_interval = 0.25\ndiagnostic_interval = 0.1\n"
+        + bergs
+        + "[[bond]]\na = 0\nb = 1\n[[bond]]\na = 2\nb = 3\n"
+    )
+    _run_on_cpu_and_vulkan(tmp_path, text)
+    worst = _compare(tmp_path / "cpu.h5", tmp_path / "vulkan.h5", TOLERANCE["f64"])
+    assert "snapshots/eta" in worst and "diagnostics/bond_energy" in worst
+    with h5py.File(tmp_path / "cpu.h5", "r") as f:
+        assert float(np.max(np.abs(f["snapshots/eta"][()]))) > 1e-4  # the pairs made waves
+        assert float(np.max(f["diagnostics/bond_energy"][()])) > 1e-10  # and loaded their bonds
+        assert int(f["diagnostics/bonds_intact"][-1]) == 2
+
+
+@pytest.mark.gpu
+@needs_vulkan
 def test_cli_on_vulkan_run_kill_resume_plot(tmp_path):
     """The command line on ``--arch vulkan``: a run killed (SIGKILL) once its checkpoint
     exists, resumed to the end, equal to an uninterrupted device run, then plotted."""
