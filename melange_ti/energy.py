@@ -89,8 +89,13 @@ def budget_series(diagnostics: Mapping[str, Any]) -> dict[str, np.ndarray]:
 # is a time step near the stability limit (the paper scene: -3.9% at dt = 0.1, -590% at 0.5).
 RESIDUAL_TRUSTED = 0.02
 # Below this share of the run's largest |E| an energy is rounding: a budget whose releases and
-# ledgers are all that small (icebergs floated at rest) is judged against it, not against them
+# ledgers are all that small (icebergs floated at rest) is judged against it, not against them;
+# in a precision whose rounding is larger, ROUNDING_ULPS of its epsilon instead (f32: 1.2e-3, so
+# 2% of it is 240 ulps of |E|; a quiet f32 scene's residual reached 4.5 ulps of |E| over 1000
+# steps, which the f64 share had flagged as 4.8% of the little energy released)
 ROUNDING_SHARE = 1e-8
+ROUNDING_ULPS = 1e4
+EPSILON = {"f64": 2.0**-52, "f32": 2.0**-23}
 
 
 def worst(residual: Any) -> int:
@@ -111,6 +116,7 @@ def budget_verdict(
     dt: float | None = None,
     accepted: float | None = None,
     energy: float = 0.0,
+    precision: str = "f64",
 ) -> str | None:
     """A warning, in one sentence, when an energy budget does not close, else ``None``.
 
@@ -119,8 +125,9 @@ def budget_verdict(
     takes the residual of largest magnitude over the run against :data:`RESIDUAL_TRUSTED` of
     the largest energy released, or dissipated where that is larger (a run that released
     little while its ledgers booked much, e.g. a struck iceberg, is not judged by the little);
-    ``energy``, the run's largest ``|E|``, sets a floor: :data:`ROUNDING_SHARE` of it (a still
-    scene's residual at rounding is no warning; a residual far past it with nothing released or
+    ``energy``, the run's largest ``|E|``, sets a floor: :data:`ROUNDING_SHARE` of it, or
+    :data:`ROUNDING_ULPS` of the ``precision``'s epsilon where that is larger (a still scene's
+    residual at rounding is no warning; a residual far past it with nothing released or
     dissipated is one). A NaN residual is always told. ``dt`` and ``accepted`` (the scene's time
     step and the largest its hydrostatics accept: docs/model.md, "The largest time step"; when
     known) make the advice concrete."""
@@ -128,7 +135,7 @@ def budget_verdict(
     if res.size == 0:
         return None
     scale = max(float(np.nanmax(np.abs(rel), initial=0.0)), float(np.nanmax(np.abs(dis), initial=0.0)))
-    scale = max(scale, ROUNDING_SHARE * abs(float(energy)))
+    scale = max(scale, max(ROUNDING_SHARE, ROUNDING_ULPS * EPSILON[precision]) * abs(float(energy)))
     bad = ~np.isfinite(res)
     k = worst(res)
     if not bad.any() and (scale == 0.0 or abs(res[k]) <= RESIDUAL_TRUSTED * scale):

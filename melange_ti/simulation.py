@@ -122,6 +122,7 @@ class RunSummary:
     dissipated_largest: float = _doc("the largest energy the ledgers had booked at any diagnostic time")
     energy_largest: float = _doc("the largest |E| at any diagnostic time (the scale of rounding: energy.ROUNDING_SHARE)")
     dt: float = _doc("the time step, time.dt")
+    precision: str = _doc("the model's precision, scene.precision (the scale of rounding: energy.ROUNDING_ULPS)")
     dt_accepted: float = _doc(
         "the largest time.dt the icebergs' hydrostatics accept, a share of the stability limit 2/omega of the stiffest "
         "heave (NaN without buoyancy: docs/model.md, 'The largest time step'; an effect's own limit may be smaller)"
@@ -159,6 +160,7 @@ class RunSummary:
             dt=self.dt or None,
             accepted=self.dt_accepted,
             energy=self.energy_largest,
+            precision=self.precision,
         )
         return [verdict] if verdict else []
 
@@ -739,5 +741,6 @@ class Simulation:
             "dissipated_largest": float(np.nanmax(np.abs(b["dissipated"]), initial=0.0)),
             "energy_largest": float(np.nanmax(np.abs(b["energy"]), initial=0.0)),
             "dt": float(self.scene.time.dt),
+            "precision": self.scene.precision,
             "dt_accepted": DT_SAFETY * float(limit[0]) if limit is not None else float("nan"),
         }

@@ -345,6 +345,41 @@ def test_bonds_and_waves_on_vulkan_match_the_cpu(tmp_path):
 
 @pytest.mark.gpu
 @needs_vulkan
+def test_ledgers_in_f32_on_vulkan_keep_the_cpus_digits(tmp_path):
+    """Every energy ledger of a run in f32 on the device within twice the CPU's own f32 error
+    (each against its backend's f64 run, largest over the run's diagnostics; 16 ulps at
+    least): 16 icebergs of the paper's shelf, tilted so they collide, 1000 steps, coloured
+    order on both. The ledgers are booked the same way everywhere, a damping's term from the
+    velocities stored (tests/physics/test_ledger_digits.py)."""
+    from melange_ti.physics.data.schema import ENERGY_LEDGERS
+
+    sets = ["shelf.count=16", "shelf.tilt=0.4", "shelf.gap=0.5", "time.duration=10.0", "contacts.order=coloured"]
+    sets += ["output.diagnostic_interval=0.5", "output.snapshot_interval=5.0"]
+    runs = {}
+    for arch in ("cpu", "vulkan"):
+        for precision in ("f64", "f32"):
+            out = tmp_path / f"{arch}_{precision}.h5"
+            cmd = [sys.executable, "-m", "melange_ti", "run", "--arch", arch, "--out", str(out)]
+            for s in (*sets, f"scene.precision={precision}"):
+                cmd += ["--set", s]
+            subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=ROOT, timeout=900)
+            with h5py.File(out, "r") as f:
+                runs[(arch, precision)] = {k: f["diagnostics"][k][()].astype(np.float64) for k in f["diagnostics"]}
+    u = float(np.finfo(np.float32).eps) / 2
+    checked = []
+    for name in ENERGY_LEDGERS:
+        ref = runs[("cpu", "f64")].get(name)
+        if ref is None or not np.abs(ref).max() > 0:
+            continue
+        scale = np.abs(ref).max()
+        err = {a: np.abs(runs[(a, "f32")][name] - runs[(a, "f64")][name]).max() / scale for a in ("cpu", "vulkan")}
+        assert err["vulkan"] <= max(2.0 * err["cpu"], 16 * u), (name, err)
+        checked.append(name)
+    assert {"drag_dissipated", "collision_dissipated", "correction_work"} <= set(checked), checked
+
+
+@pytest.mark.gpu
+@needs_vulkan
 def test_cli_on_vulkan_run_kill_resume_plot(tmp_path):
     """The command line on ``--arch vulkan``: a run killed (SIGKILL) once its checkpoint
     exists, resumed to the end, equal to an uninterrupted device run, then plotted."""

@@ -131,7 +131,12 @@ def test_largest_accepted_dt_is_stable_and_twice_it_runs_away():
 
 # ----------------------------------------------------------------------------- the budget's warning
 def _summary(
-    released: float, residual: float, largest: float | None = None, dissipated: float = 0.0, energy: float = 0.0
+    released: float,
+    residual: float,
+    largest: float | None = None,
+    dissipated: float = 0.0,
+    energy: float = 0.0,
+    precision: str = "f64",
 ) -> list[str]:
     """A summary whose budget ended at ``residual`` and reached ``largest`` (default: the end's)."""
     values = {f.name: 0 for f in dataclasses.fields(RunSummary)}
@@ -139,6 +144,7 @@ def _summary(
     values.update(compiled=False, backend="x64", energy_released=released, energy_residual=residual, dt=0.01)
     values.update(residual_largest=residual if largest is None else largest, released_largest=released)
     values.update(dissipated_largest=dissipated, residual_largest_time=7.0, dt_accepted=float("nan"), energy_largest=energy)
+    values.update(precision=precision)
     return RunSummary(**values).lines()
 
 
@@ -158,6 +164,12 @@ def test_summary_warns_when_the_residual_is_too_large_to_trust():
     assert not any(ln.startswith("warning:") for ln in _summary(1e-16, -1e-16, dissipated=1e-16, energy=0.8))
     # nothing released or dissipated, yet E moved far past rounding: told
     assert any(ln.startswith("warning:") for ln in _summary(0.0, 5.0, energy=0.8))
+    # in f32 rounding is larger: a quiet scene's residual of 4.5 ulps of |E| (16 icebergs of the
+    # paper's shelf, t = 10) is rounding there, and was flagged while the f64 floor judged it
+    quiet = dict(released=1.4e-5, residual=6.7e-7, dissipated=6.6e-7, energy=1.48)
+    assert any(ln.startswith("warning:") for ln in _summary(**quiet))
+    assert not any(ln.startswith("warning:") for ln in _summary(**quiet, precision="f32"))
+    assert any(ln.startswith("warning:") for ln in _summary(1.0, 0.1, energy=2.0, precision="f32"))
 
 
 def test_a_run_near_its_time_step_limit_is_flagged_in_the_summary_and_the_plot(tmp_path, capsys):

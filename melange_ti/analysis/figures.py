@@ -352,11 +352,11 @@ def energy_terms(group: Group) -> tuple[np.ndarray, dict[str, stats.Ensemble]]:
     return grid, out
 
 
-def run_verdict(diagnostics, dt: float | None = None) -> str | None:
+def run_verdict(diagnostics, dt: float | None = None, precision: str = "f64") -> str | None:
     """:func:`melange_ti.energy.budget_verdict` of one run's diagnostics table."""
     b = budget_series(diagnostics)
     energy = float(np.nanmax(np.abs(b["energy"]), initial=0.0))
-    return budget_verdict(b["residual"], b["released"], b["dissipated"], b["time"], dt=dt, energy=energy)
+    return budget_verdict(b["residual"], b["released"], b["dissipated"], b["time"], dt=dt, energy=energy, precision=precision)
 
 
 def fig_energy_budget(groups: Sequence[Group], units: Units):
@@ -381,7 +381,7 @@ def fig_energy_budget(groups: Sequence[Group], units: Units):
         res = terms["residual"].mean[-1]
         ratio = f" ({res / rel:.2%} of released)" if rel else ""
         title = f"{_label(g)}\nresidual at t = {grid[-1]:g}: {res:.3g}{ratio}"
-        failing = [r for r in g.runs if run_verdict(r.diag)]  # each run judged, not the group's mean
+        failing = [r for r in g.runs if run_verdict(r.diag, precision=r.scene.precision)]  # each run, not the mean
         if failing:  # plainly, on the figure
             title += f"\nTHE BUDGET DOES NOT CLOSE in {len(failing)} of {len(g.runs)} run(s) (time step too long?)"
         ax.set_title(title, fontsize=9, color="tab:red" if failing else "black")
@@ -839,7 +839,8 @@ def main(args) -> int:
             print(f"note: {path} is a partial run (stopped, or still running): up to {upto} of {end:g}")
     written = plot(paths, args.out, times=parse_times(args.times), width_m=args.width_m)
     for path in paths:  # a budget that does not close, said per run (the figure's title says it too)
-        verdict = run_verdict(read_diagnostics(path), dt=stored_scene(path).time.dt)
+        stored = stored_scene(path)
+        verdict = run_verdict(read_diagnostics(path), dt=stored.time.dt, precision=stored.precision)
         if verdict:
             print(f"{path}: {verdict}")
     with open(out / "summary.csv") as fh:

@@ -4,6 +4,7 @@ import taichi as ti
 
 from ...data.schema import Body, Param
 from ...shape.hydrostatics import divisors, wetted
+from .drag import lost
 
 
 @ti.func
@@ -20,7 +21,8 @@ def damp(a: ti.template(), i, m, inertia):
     half_cd = 0.5 * a.par[Param.FORM_DRAG]
     lin = 1.0 / (1.0 + half_cd * w[2] / m * speed * dt)
     ang = 1.0 / (1.0 + half_cd * w[3] / inertia * ti.abs(om) * dt)
-    b[i, Body.VX] = vx * lin
-    b[i, Body.VZ] = vz * lin
-    b[i, Body.OM] = om * ang
-    b[i, Body.DRAG_WORK] += 0.5 * m * speed * speed * (1.0 - lin * lin) + 0.5 * inertia * om * om * (1.0 - ang * ang)
+    nvx, nvz, nom = vx * lin, vz * lin, om * ang
+    b[i, Body.VX] = nvx
+    b[i, Body.VZ] = nvz
+    b[i, Body.OM] = nom
+    b[i, Body.DRAG_WORK] += lost(m, inertia, vx, vz, om, nvx, nvz, nom)
