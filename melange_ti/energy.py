@@ -72,7 +72,7 @@ def budget_series(diagnostics: Mapping[str, Any]) -> dict[str, np.ndarray]:
     if pe.size == 0:
         return {"time": pe, "released": pe, "dissipated": pe, "residual": pe, "energy": pe}
     return {
-        "time": np.asarray(diagnostics["time"], dtype=float),
+        "time": np.asarray(diagnostics["time"], dtype=float) if "time" in diagnostics else np.full(pe.shape, np.nan),
         "released": pe[0] - pe,
         "dissipated": dissipated,
         "residual": energy[0] - energy - dissipated,

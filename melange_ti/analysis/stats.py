@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import diagnostics as diag
 from ..diagnostics import ENERGY_LEDGERS, HELD
-from ..energy import total_energy
+from ..energy import budget_series
 
 Series = tuple[np.ndarray, np.ndarray]
 
@@ -235,18 +235,16 @@ def energy_budget(diagnostics: Mapping[str, np.ndarray]) -> dict[str, np.ndarray
         term: np.asarray(diagnostics[name], dtype=float) if name in diagnostics else np.zeros_like(pe)
         for term, name in HELD_TERMS.items()
     }
-    # E: the one sum (melange_ti.energy), of every energy part of it the file holds
-    names = ("kinetic_energy", "potential_energy", *HELD)
-    parts = {k: np.asarray(diagnostics[k], dtype=float) for k in names if k in diagnostics}
-    energy = np.asarray(total_energy(parts), dtype=float)
-    total_loss = energy[0] - energy
+    # E, released and the residual: the budget's one reading (melange_ti.energy.budget_series,
+    # which the run's verdict and summary take too)
+    b = budget_series(diagnostics)
     return {
-        "released": pe[0] - pe,
+        "released": b["released"],
         "kinetic": ke - ke[0],
         **{term: e - e[0] for term, e in held.items()},
         **ledgers,
-        "residual": total_loss - sum(ledgers.values()),
-        "total_loss": total_loss,
+        "residual": b["residual"],
+        "total_loss": b["energy"][0] - b["energy"],
     }
 
 
