@@ -155,6 +155,7 @@ def test_summary_of_a_run_that_released_nothing_says_so():
     values = {f.name: 0 for f in dataclasses.fields(RunSummary)}
     values.update(path="r.h5", steps=10, wall_seconds=1.0, startup_seconds=0.5, startup_steps=5, steps_per_second=10.0)
     values.update(compiled=False, backend="x64", energy_residual=0.0, energy_released=0.0, dt_accepted=float("nan"))
+    values.update(precision="f64")
     text = "\n".join(RunSummary(**values).lines())
     assert "none released" in text and "nan" not in text, text
     values.update(energy_released=2.0, energy_residual=-0.001)

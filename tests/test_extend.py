@@ -259,8 +259,9 @@ def test_a_run_of_the_format_before_is_extended_bit_for_bit(tmp_path):
     run files held only the diagnostics of the effects named (07070fe: a 5-iceberg shelf with
     friction to t = 2.05). Extended by this version, it goes on in its own format (every
     diagnostic, 0 for an effect not named) and equals a run made straight to the later time by
-    this version in every dataset they share, bit for bit; a resume of such a checkpoint is the
-    way a user's long run of the version before goes on."""
+    this version in every dataset they share, bit for bit (the drag's ledger, booked another way
+    since, to its rounding); a resume of such a checkpoint is the way a user's long run of the
+    version before goes on."""
     data = Path(__file__).parent / "data"
     path = tmp_path / "format6.h5"
     shutil.copy2(data / "format6.h5", path)
@@ -272,7 +273,14 @@ def test_a_run_of_the_format_before_is_extended_bit_for_bit(tmp_path):
     with h5py.File(path, "r") as f:
         assert f.attrs["format_version"] == 6 and f.attrs["complete"]
     assert set(new) - {"scene_toml"} <= set(old), sorted(set(new) - set(old))
-    for k in set(new) - {"scene_toml"}:
+    # the drag's ledger is booked another way since the file was written (15543ba: from the
+    # velocities stored, m (v - v').(v + v') / 2): up to t = 2.05 the file holds the old booking,
+    # which differs from the new by its rounding (the velocities are the same bits)
+    rebooked = {"diagnostics/drag_dissipated"}
+    for k in set(new) - {"scene_toml"} - rebooked:
         assert old[k].tobytes() == new[k].tobytes(), f"{k} differs from one run straight to t = 4"
+    for k in rebooked:
+        np.testing.assert_allclose(old[k], new[k], rtol=1e-12, atol=0, err_msg=k)
+        assert old[k].tobytes() != new[k].tobytes()  # the file does hold the old booking
     assert old["diagnostics/time"][-1] == 4.0
     assert not np.any(old["diagnostics/bond_energy"]) and "bond_energy" not in {k.split("/")[-1] for k in new}
