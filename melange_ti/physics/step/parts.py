@@ -1,7 +1,7 @@
 """What a step is made of: its stages (:class:`Stage`), each a serial form and parallel parts
 (:class:`Part`), and repeated rounds (:class:`Rounds`). The step itself is
 :data:`melange_ti.physics.stages.STEP`; an effect adds stages of its own
-(``Effect.kernels().STAGES``). No Taichi here: the parts' functions are the kernels'."""
+(``STAGES`` of its kernel module, :mod:`.terms`). No Taichi here: the parts' functions are the kernels'."""
 
 from collections.abc import Callable
 from dataclasses import dataclass
