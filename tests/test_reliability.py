@@ -175,9 +175,15 @@ class Follower:
         try:
             self.f = h5py.File(self.path, "r", locking=False)
             self.f["snapshots/time"], self.f["diagnostics/time"]
+            return self._read()
         except (OSError, KeyError, RuntimeError):
+            # opened or read during one of the writer's flushes: without SWMR, HDF5 may show a
+            # superblock older than the metadata it points to ("addr overflow", seen once under
+            # load); the next poll opens the file afresh (io/hdf5.py)
             self.close()
             return 0
+
+    def _read(self) -> int:
         lengths = {}
         for g in ("snapshots", "diagnostics"):
             # time first: the writer appends it last, so every other dataset refreshed after

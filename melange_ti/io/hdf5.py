@@ -8,7 +8,9 @@ SWMR: with the HDF5 2.x library a file opened with ``libver="latest"`` for writi
 status flag in its superblock after a kill, and plain ``h5py.File(path)`` then refuses it.
 The writer opens the file without HDF5's file lock, so a reader can open the running file
 at any time with plain ``h5py.File(path, "r")`` and sees every row up to the writer's last
-flush. Every reader here opens with h5py's default locking (no ``locking`` argument): HDF5
+flush (an open or a read that meets one of the writer's flushes can fail, HDF5's "addr
+overflow", as the file's superblock and the metadata it points to are written at different
+moments without SWMR: open it again). Every reader here opens with h5py's default locking (no ``locking`` argument): HDF5
 refuses a second open of a file that this process holds with other locking flags ("file
 locking flag values don't match"), so a user's own ``h5py.File(path)`` must be able to sit
 next to ours.
