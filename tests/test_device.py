@@ -235,7 +235,7 @@ def test_every_effect_on_vulkan_matches_the_cpu(tmp_path):
 
 @pytest.mark.gpu
 @needs_vulkan
-@pytest.mark.parametrize("precision, extra", [("f64", "waves"), ("f32", None), ("f64", "bonds+waves")])
+@pytest.mark.parametrize("precision, extra", [("f64", "waves"), ("f32", None), ("f64", "bonds")])
 def test_polygons_on_vulkan_match_the_cpu(tmp_path, precision, extra):
     """Polygon icebergs (a triangle, a pentagon, a trapezoid and a rectangle among them: the
     kernels read every outline from its corners) with every effect they take, rolling apart
@@ -245,8 +245,8 @@ def test_polygons_on_vulkan_match_the_cpu(tmp_path, precision, extra):
     clipper; the waves' device test is f64 as well: a set of kernels compiled for f32 with
     waves costs the run minutes of compiling on each backend), or with two parallelograms
     bonded across their leaning face, which rock as their buoyancy pulls them off balance
-    and load the bond, in waves too (the two owners' rows stacked in one table; the bonds'
-    own device test holds their f32 case)."""
+    and load the bond (bonds and waves together: test_bonds_and_waves_on_vulkan_match_the_cpu;
+    the bonds' own device test holds their f32 case)."""
     named = "".join(f', "{e}"' for e in extra.split("+")) if extra else ""
     waves = extra is not None and "waves" in extra
     effects = f'["gravity", "buoyancy", "drag", "form_drag", "added_mass", "collisions", "wall", "friction"{named}]'
@@ -259,7 +259,7 @@ def test_polygons_on_vulkan_match_the_cpu(tmp_path, precision, extra):
         "[[iceberg]]\nx = 6.0\nz = -0.1\ntheta = 1.0\nvertices = [[-0.6, -0.4], [0.6, -0.4], [0.3, 0.4], [-0.3, 0.4]]\n"
         "[[iceberg]]\nx = 9.0\nz = -0.5\ntheta = 0.05\nwidth = 1.0\nthickness = 1.4\n"
     )
-    if extra == "bonds+waves":
+    if extra == "bonds":
         lean = "vertices = [[0.3, -0.7], [0.7, 0.7], [-0.3, 0.7], [-0.7, -0.7]]\n"
         text += f"[[iceberg]]\nx = 12.0\nz = -0.55\n{lean}[[iceberg]]\nx = 13.0\nz = -0.55\n{lean}"
         text += "[[bond]]\na = 4\nb = 5\n"
@@ -270,7 +270,7 @@ def test_polygons_on_vulkan_match_the_cpu(tmp_path, precision, extra):
         assert float(np.ptp(f["snapshots/theta"][:, 2])) > 0.1  # the trapezoid rolled
         if waves:
             assert float(np.max(np.abs(f["snapshots/eta"][()]))) > 1e-4  # the icebergs made waves
-        if extra == "bonds+waves":  # the pair held, its bond loaded
+        if extra == "bonds":  # the pair held, its bond loaded
             assert int(f["diagnostics/bonds_intact"][-1]) == 1 and float(np.max(f["diagnostics/bond_energy"][()])) > 1e-8
         assert int(f["diagnostics/contacts"][()].sum()) > 0  # the triangle met the wall
 
