@@ -91,8 +91,9 @@ RESIDUAL_TRUSTED = 0.02
 # Below this share of the run's largest |E| an energy is rounding: a budget whose releases and
 # ledgers are all that small (icebergs floated at rest) is judged against it, not against them;
 # in a precision whose rounding is larger, ROUNDING_ULPS of its epsilon instead (f32: 1.2e-3, so
-# 2% of it is 240 ulps of |E|; a quiet f32 scene's residual reached 4.5 ulps of |E| over 1000
-# steps, which the f64 share had flagged as 4.8% of the little energy released)
+# 2% of it is 200 ulps of |E|; a quiet f32 scene's residual reached 4.5e-7 of |E|, 3.8 ulps, over
+# 1000 steps, which the f64 share had flagged as 4.8% of the little energy released; the 50x
+# margin is for longer runs, whose rounding grows with the steps)
 ROUNDING_SHARE = 1e-8
 ROUNDING_ULPS = 1e4
 EPSILON = {"f64": 2.0**-52, "f32": 2.0**-23}

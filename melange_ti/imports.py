@@ -2,9 +2,14 @@
 
 Every ``import`` and ``from ... import`` statement counts, at the top of a module, inside a
 function or under ``if TYPE_CHECKING:``; a name imported from a package that is one of its
-modules counts as that module. ``python -m melange_ti.imports`` prints the circles (none is the
-house's rule, ``tests/test_architecture.py``) and, with ``--floors``, each module's floor: 1
-for a module that imports none of the package, else one more than the highest it imports.
+modules counts as that module, and importing ``a.b.c`` imports the packages ``a`` and ``a.b``
+too (their ``__init__``), but for the importer's own packages, which are importing already.
+What it cannot read is an import by a computed name (``importlib.import_module(f".{x}")``:
+``melange_ti.bench.cli`` picks its benchmark so, from a package above every benchmark).
+
+``python -m melange_ti.imports`` prints the circles (none is the house's rule,
+``tests/test_architecture.py``) and, with ``--floors``, each module's floor: 1 for a module
+that imports none of the package, else one more than the highest it imports.
 """
 
 from __future__ import annotations
@@ -47,6 +52,13 @@ def _targets(name: str, path: Path, node: ast.AST, known: dict[str, Path]) -> li
             target = target.rsplit(".", 1)[0]
         if target in known and target != name:
             out.append(target)
+            # importing a.b.c runs the packages a and a.b first: each is imported too, but for
+            # the importer's own packages, which are importing already
+            parts = target.split(".")
+            for k in range(1, len(parts)):
+                parent = ".".join(parts[:k])
+                if parent in known and not name.startswith(parent + ".") and parent != name:
+                    out.append(parent)
     return out
 
 

@@ -112,7 +112,7 @@ FORM_TABLE: tuple[tuple[str, str, Callable, object], ...] = (
     ("islands", "the CPU, fewer threads", lambda c: True, False),
     ("device_parts", "a device", lambda c: not c.cpu, True),
     ("device_parts", "the CPU", lambda c: True, False),
-    ("groups", "the CPU, sequential order, islands and device parts off", lambda c: _grouped(c), lambda c: c.threads),
+    ("groups", "the CPU, sequential order, islands and device parts off", _grouped, lambda c: c.threads),
     ("groups", "otherwise", lambda c: True, 1),
     ("mode", f"the CPU, n <= {SERIAL_MAX_N}", lambda c: c.cpu and c.n <= SERIAL_MAX_N, "serial"),
     ("mode", "otherwise", lambda c: True, "parallel"),
@@ -413,8 +413,8 @@ class Model:
         return [self._unpack(*bufs, k) for k in range(len(segments))]
 
     def _sample_buffers(self, count: int, table: bool = True) -> tuple[np.ndarray, ...]:
-        """Where a launch puts its samples; with ``table``, also a copy of the owning effect's
-        table per sample (one element without one), as the fused launch writes it."""
+        """Where a launch puts its samples; with ``table``, also a copy of the owners' table per
+        sample (one element without one), as the fused launch writes it."""
         bufs = (
             np.zeros((count, self.n, len(stages.SAMPLE_NAMES)), dtype=self.np_real),
             np.zeros((count, ACCUMULATORS.size), dtype=np.float64),
@@ -426,8 +426,8 @@ class Model:
         return (*bufs, np.zeros((count, *shape), dtype=self.np_real))
 
     def _unpack(self, out, out_acc, out_cnt, out_own, k: int) -> tuple[dict[str, np.ndarray], Totals]:
-        """Sample ``k`` of the buffers; the owning effect's part from its table, copied in the
-        launch (``out_own``) or, ``None``, fetched now: the same values."""
+        """Sample ``k`` of the buffers; each owning effect's part from its rows of the owners'
+        table, copied in the launch (``out_own``) or, ``None``, fetched now: the same values."""
         sample = {name: out[k, :, q].copy() for q, name in enumerate(stages.SAMPLE_NAMES)}
         if self.axis is not None:  # polygons: the principal axes the capsize angle is measured by
             sample["axis"] = self.axis

@@ -345,6 +345,28 @@ def test_bonds_and_waves_on_vulkan_match_the_cpu(tmp_path):
 
 @pytest.mark.gpu
 @needs_vulkan
+def test_drag_books_on_vulkan_in_f32_the_energy_its_velocities_lost(tmp_path):
+    """A block coasting in the air with drag alone, 1000 steps in f32 on the device: its
+    ``drag_dissipated`` within its own sum's rounding of the energy the stored velocities lost
+    (the numpy replay of tests/physics/test_ledger_digits.py), its velocity the replay's bits.
+    The old booking, ``1/2 m v^2 (1 - keep^2)``, was 1.8e-4 off, past that bound."""
+    from .physics.test_ledger_digits import drifting, replayed, within_its_sum
+
+    (tmp_path / "drift.toml").write_text(drifting("f32") + "[output]\nsnapshot_interval = 10.0\ndiagnostic_interval = 10.0\n")
+    cmd = [sys.executable, "-m", "melange_ti", "run", str(tmp_path / "drift.toml"), "--arch", "vulkan"]
+    subprocess.run(cmd + ["--out", str(tmp_path / "drift.h5")], check=True, capture_output=True, text=True, cwd=ROOT, timeout=900)
+    with h5py.File(tmp_path / "drift.h5", "r") as f:
+        assert f["diagnostics/time"][-1] == 10.0
+        booked = float(f["diagnostics/drag_dissipated"][-1])
+        vx = float(f["snapshots/vx"][-1, 0])
+        mass, inertia = (float(np.float32(f[f"icebergs/{k}"][0])) for k in ("mass", "inertia"))
+    lost, replay_vx = replayed("f32", mass, inertia)
+    assert vx == replay_vx
+    assert within_its_sum(booked, lost, "f32"), (booked, lost, abs(booked - lost) / lost)
+
+
+@pytest.mark.gpu
+@needs_vulkan
 @pytest.mark.parametrize("case", ["floating", "colliding"])
 def test_ledgers_in_f32_on_vulkan_keep_the_cpus_digits(tmp_path, case):
     """Every energy ledger of a run in f32 on the device within twice the CPU's own f32 error
@@ -353,8 +375,9 @@ def test_ledgers_in_f32_on_vulkan_keep_the_cpus_digits(tmp_path, case):
     rocking, and ``colliding``, 16 blocks driven into the wall and each other. Measured, the
     device's f32 errors equal the CPU's to three digits in both (2.5e-4 in drag_dissipated
     floating, 0.58 in correction_work colliding: the f32 trajectories part from the f64 ones,
-    and the ledgers with them); the ledgers' own arithmetic is held on the CPU against the
-    energy the stored velocities lost (tests/physics/test_ledger_digits.py)."""
+    and the ledgers with them). This is parity, which the old booking (equally wrong on both)
+    had too; the booking itself is held against the energy the stored velocities lost, on the
+    CPU (tests/physics/test_ledger_digits.py) and on the device (the test above)."""
     from melange_ti.physics.data.schema import ENERGY_LEDGERS
 
     text = '[scene]\nname = "ledgers"\n[time]\ndt = 0.01\nduration = 10.0\n[contacts]\norder = "coloured"\n'

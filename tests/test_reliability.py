@@ -175,11 +175,17 @@ class Follower:
         try:
             self.f = h5py.File(self.path, "r", locking=False)
             self.f["snapshots/time"], self.f["diagnostics/time"]
-            return self._read()
         except (OSError, KeyError, RuntimeError):
-            # opened or read during one of the writer's flushes: without SWMR, HDF5 may show a
-            # superblock older than the metadata it points to ("addr overflow", seen once under
-            # load); the next poll opens the file afresh (io/hdf5.py)
+            self.close()
+            return 0
+        try:
+            return self._read()
+        except OSError as exc:
+            # read during one of the writer's flushes: without SWMR, HDF5 may show a superblock
+            # older than the metadata it points to ("addr overflow", seen once under load); the
+            # next poll opens the file afresh (io/hdf5.py). Any other failure is the test's.
+            if "addr overflow" not in str(exc):
+                raise
             self.close()
             return 0
 

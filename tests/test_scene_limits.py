@@ -164,7 +164,7 @@ def test_summary_warns_when_the_residual_is_too_large_to_trust():
     assert not any(ln.startswith("warning:") for ln in _summary(1e-16, -1e-16, dissipated=1e-16, energy=0.8))
     # nothing released or dissipated, yet E moved far past rounding: told
     assert any(ln.startswith("warning:") for ln in _summary(0.0, 5.0, energy=0.8))
-    # in f32 rounding is larger: a quiet scene's residual of 4.5 ulps of |E| (16 icebergs of the
+    # in f32 rounding is larger: a quiet scene's residual of 3.8 ulps of |E| (16 icebergs of the
     # paper's shelf, t = 10) is rounding there, and was flagged while the f64 floor judged it
     quiet = dict(released=1.4e-5, residual=6.7e-7, dissipated=6.6e-7, energy=1.48)
     assert any(ln.startswith("warning:") for ln in _summary(**quiet))

@@ -356,8 +356,9 @@ def sample_all(fx: ti.template(), b: arr, par: arr, acc: arr, cnt: arr, out: arr
 
 @ti.func
 def copy_own(fx: ti.template(), a: ti.template(), out_own: ti.template(), k):
-    """With an effect that owns a table, a copy of the table in ``out_own[k]``: what its
-    host side samples (``State.sample``) from, as from the table fetched after a launch."""
+    """With effects that own a table, a copy of the owners' table in ``out_own[k]``: what
+    their host sides sample (``State.sample``, each its rows) from, as from the table fetched
+    after a launch."""
     if ti.static(fx.owns):
         for j in range(a.own.shape[0]):
             for c in range(a.own.shape[1]):

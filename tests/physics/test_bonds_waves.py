@@ -162,10 +162,10 @@ def test_bonds_and_waves_coloured_orders_agree_across_forms():
         np.testing.assert_array_equal(table, runs[0][1])
 
 
-def test_start_from_a_run_with_bonds_and_waves_keeps_the_bonds_and_calms_the_sea(tmp_path):
+def test_start_from_a_run_with_bonds_and_waves_keeps_the_bonds(tmp_path):
     """``[start]`` from the struck row in waves: the bonds intact in the snapshot it starts from
-    with their rest geometry (as from a run of bonds alone), and, as from any run with waves, a
-    still sea (the file holds the surface, not its potential: docs/model.md)."""
+    with their rest geometry, in the rows after the grid's, as from a run of bonds alone. (The
+    sea starts still, as from any run with waves: the grid reads no start file, docs/model.md.)"""
     import melange_ti as mt
     from melange_ti.io.hdf5 import read_run
 
@@ -186,7 +186,7 @@ def test_start_from_a_run_with_bonds_and_waves_keeps_the_bonds_and_calms_the_sea
     m = Model(mt.load_scene(tmp_path / "next.toml"), mode="serial")
     bonds = m.own_rows("bonds")
     assert int((bonds[:, Bond.A] >= 0).sum()) == intact.sum()
-    assert m.own_rows("waves")[:, Wave.ETA].tolist() == [0.0] * m.effect("waves").rows
+    assert m.effect("waves").first_row == 0 and m.effect("bonds").first_row == m.effect("waves").rows
     mt.run(mt.load_scene(tmp_path / "next.toml"), tmp_path / "next.h5")
     nxt = read_run(tmp_path / "next.h5")
     np.testing.assert_array_equal(nxt["bonds"]["rest"][:, :11], src["bonds"]["rest"][intact][:, :11])  # A ... SPAN

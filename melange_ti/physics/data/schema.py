@@ -391,8 +391,9 @@ class Arrays(NamedTuple):
     """The model's ndarrays, in the order every kernel takes them (see :class:`Table`).
 
     ``nl`` (N, narrow.list_width(k), i32): candidate lists; see :mod:`..step.narrow`. ``own``: the
-    table of the effect that owns one (``Effect.table``, indexed with its namespace; one row
-    of one column in a model without such an effect). Every field defaults to ``None``, for
+    owners' table, the rows of every named effect that owns one stacked in the registry's
+    order (``Effect.table``, each indexed with its namespace from its first row,
+    :func:`own_rows`; one row of one column in a model without such an effect). Every field defaults to ``None``, for
     kernels that take a few arrays (``Arrays(cfg=cfg, own=own)``)."""
 
     b: object = None
@@ -408,7 +409,7 @@ class Arrays(NamedTuple):
     cnt: object = None
     acc: object = None
     red: object = None  # (blocks, device.RED_WIDTH), f64: partial sums of the device's parallel parts (physics/forms/device.py)
-    own: object = None  # (rows, table.size), real: the owning effect's table
+    own: object = None  # (rows, widest table), real: the owners' rows stacked (own_rows)
     fx: object = None  # the effect set (Effects): what a term asks of it at compile time (the outline's corners)
 
     def ndarrays(self) -> tuple:

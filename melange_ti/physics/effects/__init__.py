@@ -45,6 +45,17 @@ JOINED_WALL = tuple(e for e in REGISTRY if "joined_wall" in e.terms)
 OWNERS = tuple(e for e in REGISTRY if e.table is not None)  # effects that own a table (``a.own``)
 # an owner whose kernels index its rows from 0 (``rows_first``) must come first among them: its
 # rows then start the stacked table whatever else a scene names
+
+
+def clashes(effects) -> list[str]:
+    """File dimensions and dataset paths that more than one of ``effects`` declares: a scene may
+    name them all together, and the run file has one of each name."""
+    names = [n for e in effects for n, _ in e.dims] + [d.path for e in effects for d in e.datasets]
+    return sorted({n for n in names if names.count(n) > 1})
+
+
+if clashes(REGISTRY):
+    raise ImportError(f"two effects declare the same file dimension or dataset: {clashes(REGISTRY)}")
 if any(e.rows_first for e in OWNERS[1:]):
     raise ImportError(f"only the first effect that owns a table may index its rows from 0: {[e.name for e in OWNERS]}")
 
@@ -102,6 +113,7 @@ __all__ = [
     "POST_DRIFT",
     "POTENTIALS",
     "OWNERS",
+    "clashes",
     "JOINED",
     "JOINED_WALL",
     "IMPULSE_LAW",

@@ -14,7 +14,7 @@ partners j > i ascending; repeated ``contact_passes`` times (Gauss-Seidel). Then
 ``check`` stage: while some contact would still close by more than ``DEEP_FRACTION`` of a
 disc radius this step, the pass runs again, and if an impulse made a body faster than the
 reach it was searched with (a struck iceberg in a packed row), detection runs again first
-(at most ``MAX_DETECT`` rounds, :mod:`.stages`), so chains cannot tunnel.
+(at most ``MAX_DETECT`` rounds, :mod:`..stages`), so chains cannot tunnel.
 """
 
 import taichi as ti

@@ -78,7 +78,8 @@ def model_stress(pa: float, width_m: float = 70.0) -> float:
 
 
 class Bond:
-    """Columns of the bond table (``a.own`` with the bonds effect): one row per bond."""
+    """Columns of the bond table (its rows of ``a.own`` with the bonds effect, from
+    ``Config.BONDS_ROW0``): one row per bond."""
 
 
 TABLE = Table(
@@ -181,7 +182,9 @@ EFFECT = Effect(
     ),
     body_columns=(
         *(
-            Column(f"BOND_{k + 1}", "constant", "1", f"bonds: row of its bond {k + 1} in the bond table, plus 1 (0: none)")
+            Column(
+                f"BOND_{k + 1}", "constant", "1", f"bonds: row of its bond {k + 1} in the owners' table a.own, plus 1 (0: none)"
+            )
             for k in range(MAX_BONDS)
         ),
         Column(

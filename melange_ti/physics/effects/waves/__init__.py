@@ -80,7 +80,8 @@ SPONGE_Q = 2.0**-50
 
 
 class Wave:
-    """Columns of the wave grid's table (``a.own`` with the waves effect)."""
+    """Columns of the wave grid's table (the first rows of ``a.own`` with the waves effect:
+    ``rows_first``)."""
 
 
 TABLE = Table(
