@@ -13,18 +13,32 @@ from .physics.effects import REGISTRY
 
 
 class Event(NamedTuple):
-    """What the diagnostics of one output event are computed from."""
+    """What the diagnostics of one output event are computed from: the state the step before
+    it left (``sample``, ``totals``) and, for the kinetic energy at the step time, the sample
+    the next step leaves (``after``: its ``half_kick``, :meth:`kinetic`)."""
 
     t: float  # time of the event
     sample: dict[str, np.ndarray]  # Model.sample(): state, per-body ledgers, kinetic, potential, (N,)
     totals: Any  # Model.Totals of the same instant (run-wide ledgers and the impulse count)
     previous: Any  # totals at the previous diagnostic: t, impulses, wall_impulse, impulse_sum
     x0_max: float  # max_i x_i(0)
+    after: dict[str, np.ndarray] | None = None  # Model.sample() one step later (None: not read)
 
     def rate(self, name: str) -> float:
         """Change of the run-wide total ``name`` per unit time since the previous diagnostic."""
         span = self.t - self.previous.t
         return (getattr(self.totals, name) - getattr(self.previous, name)) / span if span > 0 else 0.0
+
+    def kinetic(self) -> float:
+        """The kinetic energy at the step time: ``0.5 m v0 . v1`` summed, ``v0`` the velocities
+        the step before left (half a kick before the step time), ``v1`` those after the next
+        step's forces' kick (half a kick after it): the sample's kinetic energy plus the next
+        step's ``half_kick`` (docs/model.md, "What the budget promises"). Without ``after``,
+        the sample's own."""
+        ke = float(np.sum(self.sample["kinetic"], dtype=np.float64))
+        if self.after is not None:
+            ke += float(np.sum(self.after["half_kick"], dtype=np.float64))
+        return ke
 
 
 class Field(NamedTuple):
@@ -65,7 +79,8 @@ def _held_fields() -> tuple[Field, ...]:
     effect's sample gives; without the effect, the declaration's ``without`` (0)."""
 
     def field(q, owner: str) -> Field:
-        return Field(q.name, "f8", q.units, q.doc, lambda e: float(e.sample.get(q.name, q.without(e.sample))), q.since, owner)
+        key = q.at_step or q.name  # read from the positions: the sample's own instant
+        return Field(q.name, "f8", q.units, q.doc, lambda e: float(e.sample.get(key, q.without(e.sample))), q.since, owner)
 
     return tuple(field(q, eff.name) for eff in REGISTRY for q in eff.held)
 
@@ -98,7 +113,13 @@ FIELDS: tuple[Field, ...] = (
         "leading edge: how far the front (the foremost iceberg centre) has advanced since t = 0",
         lambda e: leading_edge(e.sample["x"], e.x0_max),
     ),
-    Field("kinetic_energy", "f8", E, "kinetic energy, summed over icebergs", lambda e: float(np.sum(e.sample["kinetic"]))),
+    Field(
+        "kinetic_energy",
+        "f8",
+        E,
+        "kinetic energy, summed over icebergs, at the step time (0.5 m v0 . v1, the velocities half a kick before and after it)",
+        lambda e: e.kinetic(),
+    ),
     Field(
         "potential_energy",
         "f8",

@@ -412,6 +412,24 @@ class Model:
         self._check_overflow()
         return [self._unpack(*bufs, k) for k in range(len(segments))]
 
+    def peek(self, steps: int = 1) -> tuple[dict[str, np.ndarray], Totals]:
+        """:meth:`sample_with_totals` ``steps`` steps on, leaving the model as it was: every
+        array a step reads or writes is copied first and put back after, so the run that
+        goes on (or a later :meth:`advance`) gives the same bits as without the look. The
+        run's diagnostics read the energy at the step time from the state two consecutive
+        steps leave; the last row of a run looks one step past its end this way."""
+        arrays = self.arrays.ndarrays()
+        saved = [x.to_numpy() for x in arrays]
+        colours, calibrate = self._colours, self._calibrate
+        self._calibrate = False
+        try:
+            self.advance(steps)
+            return self.sample_with_totals()
+        finally:
+            for x, v in zip(arrays, saved, strict=True):
+                x.from_numpy(v)
+            self._colours, self._calibrate = colours, calibrate
+
     def _sample_buffers(self, count: int, table: bool = True) -> tuple[np.ndarray, ...]:
         """Where a launch puts its samples; with ``table``, also a copy of the owners' table per
         sample (one element without one), as the fused launch writes it."""

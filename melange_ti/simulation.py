@@ -22,7 +22,7 @@ import numpy as np
 import tomllib
 
 from . import diagnostics as diag
-from .energy import RESIDUAL_TRUSTED, budget_series, budget_verdict, runaway, total_energy, worst  # noqa: F401 (RESIDUAL_TRUSTED: as before)
+from .energy import RESIDUAL_TRUSTED, budget_promise, budget_series, budget_verdict, runaway, total_energy, worst  # noqa: F401 (RESIDUAL_TRUSTED: as before)
 from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
 from .io.hdf5 import COMPLETE_ATTR, FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_diagnostics, read_run, scene_text
@@ -48,9 +48,10 @@ SPELLINGS = {
 }
 
 
-# Run-file formats a resume continues: 6 differs from 7 only in holding every diagnostic, which
-# the writer then goes on writing (so a run begun by the version before can still be extended)
-RESUMABLE = (6, FORMAT_VERSION)
+# Run-file formats a resume continues: only this version's. Format 8 reads the energies at the
+# step time, the formats before from the state a step leaves: one file mixing the two would
+# show the difference as a jump in its budget
+RESUMABLE = (FORMAT_VERSION,)
 
 # The one scene key a resume may change: the end, before or after the run's (an extension)
 EXTENDABLE = "time.duration"
@@ -144,6 +145,7 @@ class RunSummary:
             f"energy: released (potential, E_p(0) - E_p(t)) {self.energy_released:.6g}; lost (E(0) - E(t)) "
             f"{self.energy_lost:.6g} = dissipated {self.dissipated:.6g} + residual {self.energy_residual:.3g} "
             f"({share})",
+            budget_promise(self.residual_largest, self.released_largest, self.residual_largest_time),
             *self._untrusted(),
             f"output: {self.path} (ran on Taichi's {self.backend} backend)",
         ]
@@ -223,6 +225,27 @@ class IterationInterval:
         return (step // self.steps + 1) * self.steps
 
 
+@dataclass(frozen=True)
+class PairedInterval:
+    """The diagnostics' schedule: every ``steps`` steps, the times of the rows, and the step
+    after each, whose state completes the row (the energy at the step time is read from the
+    states two consecutive steps leave: docs/model.md, "What the budget promises")."""
+
+    steps: int
+
+    def __call__(self, step: int) -> bool:
+        return step % self.steps == 0 or (step >= 1 and step % self.steps == 1)
+
+    def on_grid(self, step: int) -> bool:
+        """Whether a row is taken at ``step``."""
+        return step % self.steps == 0
+
+    def next(self, step: int) -> int:
+        """The first step after ``step`` at which the schedule fires."""
+        base = step // self.steps * self.steps
+        return step + 1 if step == base else base + self.steps
+
+
 @dataclass
 class _Counters:
     """Cumulative totals at the previous diagnostic (rates are differences of these)."""
@@ -242,28 +265,71 @@ class _Counters:
 
 
 class Diagnostics:
-    """The scalar time series (:data:`melange_ti.diagnostics.FIELDS`), also at the last step."""
+    """The scalar time series (:data:`melange_ti.diagnostics.FIELDS`), also at the last step.
+
+    A row at step ``j`` is written once step ``j + 1`` has run: its kinetic energy is read at
+    the step time with that step's half kick (:meth:`diag.Event.kinetic`). Where the run
+    stops at ``j`` (its end, a snapshot or checkpoint, which end a launch, an interrupt or an
+    error) the row looks one step on instead (:meth:`Model.peek`), which changes nothing the
+    run goes on from: the file then holds every row up to where the run stands."""
 
     name = "diagnostics"
     at_end = True
     from_sample = True  # can run on a sample taken earlier in the same launch (Simulation._batch)
 
     def __init__(self, schedule: IterationInterval, effects=None):
-        self.schedule = schedule
+        self.schedule = PairedInterval(schedule.steps)
         self.counters = _Counters()
         self.last: dict | None = None
         self.last_step = -1
         self.fields = diag.fields(effects)  # the model's own and those of the effects named
         self.names = tuple(f.name for f in self.fields)
+        self.pending: tuple | None = None  # (step, t, sample, totals) of a row waiting for the next step's state
+        self.before = self.counters  # the counters before the last row written
 
     def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
-        tot = sim.totals  # fetched with the sample
+        if self.pending is not None and step == self.pending[0] + 1:
+            self._finish(sim, s)
+        if self.schedule.on_grid(step) or step == sim.total:
+            self.pending = (step, t, s, sim.totals)  # the totals fetched with the sample
+            if step == sim.total or not all(o.from_sample for o in sim._due(step)):
+                self.flush(sim)  # the launch stops here: the next step, looked at and undone
+
+    def flush(self, sim: Simulation) -> None:
+        """Write the pending row now, with the next step looked at and undone
+        (:meth:`Model.peek`); where that step cannot be taken (the state the guard stops on,
+        or a launch that went past the row's step before an error stopped the run), with the
+        kinetic energy of the velocities the last step left."""
+        if self.pending is None:
+            return
+        after = None  # where the model has gone past the row's step (a launch's later samples), or
+        if sim.model_step == self.pending[0]:  # no step can go on from its state: the velocities' own
+            try:
+                after = sim.model.peek(1)[0]
+            except Exception:  # non-finite, contact slots overflowing
+                after = None
+        self._finish(sim, after)
+
+    def take(self, step: int, t: float, sampled: tuple) -> None:
+        """A resumed run's first row, at its checkpoint's step (``sampled``: the model's
+        :meth:`Model.sample_with_totals` there), completed by the next step as any other."""
+        self.pending = (step, t, *sampled)
+
+    def _finish(self, sim: Simulation, after: dict | None) -> None:
+        step, t, s, tot = self.pending
+        self.pending = None
         c = self.counters
-        row = diag.row(diag.Event(t, s, tot, c, sim.x0_max), self.fields)  # each field computed as declared
-        if self.schedule(step):  # a row off the grid (at an end) leaves them: a run extended past it goes on as one run
+        row = diag.row(diag.Event(t, s, tot, c, sim.x0_max, after), self.fields)  # each field computed as declared
+        self.before = dataclasses.replace(c)  # as a run resumed here, which forms this row again, needs them
+        if self.schedule.on_grid(step):  # a row off the grid (at an end) leaves them: a run extended past it goes on as one run
             c.t, c.impulses, c.wall_impulse, c.impulse_sum = t, tot.impulses, tot.wall_impulse, tot.impulse_sum
         self.last, self.last_step = row, step
         sim.writer.diagnostic(row)
+
+    def saved_counters(self, step: int) -> dict:
+        """The counters a checkpoint at ``step`` keeps: those before the row at ``step``, when
+        one was written there (a run resumed from it forms that row again)."""
+        return (self.before if self.last_step == step else self.counters).save()
 
 
 class Guard:
@@ -280,9 +346,9 @@ class Guard:
         self.schedule = None
 
     def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
-        row = self.diagnostics.last if self.diagnostics.last_step == step else None
-        bad = runaway(s, total_energy(row) if row is not None else None, sim.e0, sim.total_mass)
+        bad = runaway(s, total_energy(s), sim.e0, sim.total_mass)  # the energy of the state the step left
         if bad is not None:
+            self.diagnostics.flush(sim)  # the row of this step, if it waits for the next
             sim.writer.snapshot(t, s)
             sim.writer.flush()
             raise NumericalError(f"step {step} (t = {t:g}): {bad}; output kept in {sim.out}")
@@ -336,7 +402,7 @@ class Checkpoints:
             "step": step,
             **{f"state_{k}": v for k, v in sim.model.state().items()},
             **{f"acc_{k}": v for k, v in sim.model.accumulators().items()},
-            **self.diagnostics.counters.save(),
+            **self.diagnostics.saved_counters(step),
             **shape_of(sim.bergs),
             "x0_max": sim.x0_max,
             "e0": sim.e0,
@@ -483,10 +549,13 @@ class Simulation:
         t0 = wallclock.perf_counter()
         self.startup = None  # (seconds, steps) of the first launch
         step = start_step
+        self.model_step = step
         interrupt = _DeferredInterrupt()
         try:
             if not self.resume:
                 self._events(0, first=True)
+            elif step < self.total and self.diagnostics.schedule.on_grid(step):  # its row, formed again
+                self.diagnostics.take(step, step * scene.time.dt, model.sample_with_totals())
             pace = None  # steps per wall second of the last launch
             while step < self.total:
                 if interrupt.requested:
@@ -500,6 +569,7 @@ class Simulation:
                 else:
                     stops = [s for s in stops if s - step <= cap]
                     sampled = model.advance_sampled([b - a for a, b in zip((step, *stops[:-1]), stops, strict=True)])
+                self.model_step = stops[-1]  # where the model stands (its samples may be of earlier steps)
                 if self.startup is not None:  # the first launch's pace is its compiling
                     pace = (stops[-1] - step) / max(wallclock.perf_counter() - launched, 1e-9)
                 if self.startup is None:
@@ -520,6 +590,12 @@ class Simulation:
                 # nothing was recorded: leave nothing behind
                 self.out.unlink(missing_ok=True)
                 self.ckpt.unlink(missing_ok=True)
+            raise
+        except BaseException:  # stopped part way (an exception from on_event, ...): the rows up to here
+            try:
+                self.diagnostics.flush(self)
+            except Exception:
+                pass
             raise
         finally:
             watch.close()
@@ -558,6 +634,7 @@ class Simulation:
     def _interrupted(self, step: int) -> None:
         """Ctrl-C: a checkpoint where the run stands, then stop saying so."""
         t = step * self.scene.time.dt
+        self.diagnostics.flush(self)  # a row waiting for the next step: written, as at an end
         self.checkpoints.write(self, step, t, None)
         if self.interface == "api":
             how = f"mt.run(scene, {str(self.out)!r}, resume=True)"
@@ -685,23 +762,28 @@ class Simulation:
         # checkpoint: a row after it was written only because the run ended there, and a run
         # that goes on (extended) has none. A checkpoint at the end keeps them: nothing is left to run.
         # Each group is cut on its own grid: an end on the diagnostics' grid but not the snapshots'
-        # keeps its diagnostic row and drops its snapshot.
+        # keeps its diagnostic row and drops its snapshot. A diagnostic row at the checkpoint
+        # itself is dropped too: the resumed run forms it again with the step it takes next
+        # (Diagnostics.take), as a run that had gone on formed it.
         dt = self.scene.time.dt
-        keep = {
-            o.name: (step if step == self.total else step // o.schedule.steps * o.schedule.steps) * dt
-            for o in self.outputs
-            if o.name in ("snapshots", "diagnostics")
-        }
+
+        def kept(o) -> float:
+            if step == self.total:
+                return step * dt
+            last = step - 1 if o.name == "diagnostics" else step
+            return last // o.schedule.steps * o.schedule.steps * dt
+
+        keep = {o.name: kept(o) for o in self.outputs if o.name in ("snapshots", "diagnostics")}
         writer = RunWriter(self.out, dtype=dtype, mode="r+", resume_time=keep, attrs=self._extension)
-        # the diagnostics the file holds: a format-6 file holds every one (0 for an effect not named)
+        # the diagnostics the file holds
         self.diagnostics.fields = tuple(f for f in diag.FIELDS if f.name in writer.diagnostic_names)
         return writer, step
 
     def _summary(self, steps: int, wall: float) -> RunSummary:
         row = self.diagnostics.last or {}
-        energy = total_energy(row) if row else 0.0
-        lost = self.e0 - energy
-        dissipated = sum(row.get(name, 0.0) for name in diag.ENERGY_LEDGERS)
+        budget = self._budget_series()
+        lost = float(budget["energy"][0] - budget["energy"][-1]) if budget["energy"].size else 0.0
+        dissipated = float(budget["dissipated"][-1]) if budget["dissipated"].size else 0.0
         first_wall, first_steps = self.startup or (wall, steps)
         return RunSummary(
             path=self.out,
@@ -719,18 +801,21 @@ class Simulation:
             dissipated=dissipated,
             energy_residual=lost - dissipated,
             backend=self.backend,
-            **self._budget_over_run(),
+            **self._budget_over_run(budget),
         )
 
-    def _budget_over_run(self) -> dict[str, float]:
-        """The budget's largest residual over the whole run (from the file's diagnostics, so a
-        resumed run is judged from t = 0) and what it is judged against."""
+    def _budget_series(self) -> dict[str, np.ndarray]:
+        """The budget over the whole run, from the file's diagnostics (so a resumed run is
+        judged from t = 0)."""
+        try:
+            return budget_series(read_diagnostics(self.out))
+        except OutputError:
+            return {k: np.zeros(0) for k in ("time", "released", "dissipated", "residual", "energy")}
+
+    def _budget_over_run(self, b: dict[str, np.ndarray]) -> dict[str, float]:
+        """The budget's largest residual over the whole run and what it is judged against."""
         from .scene.initial import DT_SAFETY, time_step_limit
 
-        try:
-            b = budget_series(read_diagnostics(self.out))
-        except OutputError:
-            b = {k: np.zeros(0) for k in ("time", "released", "dissipated", "residual", "energy")}
         res = b["residual"]
         k = worst(res)
         limit = time_step_limit(self.scene, self.bergs)

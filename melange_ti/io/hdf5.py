@@ -36,6 +36,10 @@ from ..physics.data.schema import BODIES
 from ..physics.data.schema import STATE_NAMES as STATE
 from ..physics.effects import REGISTRY
 
+# 8: the energy of the diagnostics read at the step time: kinetic_energy 0.5 m v0 . v1 of the
+# velocities half a kick before and after it, an effect's held energy at the positions
+# (Quantity.at_step; docs/model.md, "What the budget promises"); older files hold the kinetic
+# energy of the velocities the step left;
 # 7: a run holds only the diagnostics of the effects its scene names (diagnostics.fields: an effect's
 # energies, ledgers and reports absent without it; older files hold them all, 0);
 # 6: an effect's reports (diagnostics beyond energies), datasets over the icebergs, datasets
@@ -48,7 +52,7 @@ from ..physics.effects import REGISTRY
 # 2: self-describing as netCDF-4 (dimension scales, units and long_name on every variable,
 # global attributes); 1: plain HDF5 (still read). A diagnostic added later carries the next
 # version as its ``since``, and the figures read the older files without it.
-FORMAT_VERSION = 7
+FORMAT_VERSION = 8
 SCENE_ATTR = "scene_toml"  # root attribute: the resolved scene, as run (TOML text)
 COMPLETE_ATTR = "complete"  # root attribute: True once the run reached its end
 DIAGNOSTICS = tuple(f.name for f in FIELDS)

@@ -303,7 +303,7 @@ def orient_all(b: arr):
 
 # What :func:`sample_all` writes per body, in order: the state and the per-body ledgers
 # (their output names, from the schema), then the kinetic and potential energy.
-_SAMPLED = [(c.output, k) for k, c in enumerate(BODIES.columns) if c.output and c.role in ("state", "ledger")]
+_SAMPLED = [(c.output, k) for k, c in enumerate(BODIES.columns) if c.output and c.role in ("state", "ledger", "reading")]
 SAMPLED_COLUMNS = tuple(k for _, k in _SAMPLED)
 
 

@@ -161,19 +161,24 @@ def test_a_cut_shelf_breaks_and_every_form_gives_the_same_bits(cut_shelf_forms):
     same_bits_breaking_some(cut_shelf_forms)
 
 
-def test_a_breaking_cut_shelf_closes_its_budget_to_first_order(tmp_path):
+def test_a_breaking_cut_shelf_closes_its_budget_at_every_instant(tmp_path):
     """With water, contacts, the wall and fracture (the free front icebergs rolling against
-    the shelf break a bond): ``E + ledgers`` departs from its start by the step's documented
-    offset (docs/model.md, "What the budget promises": ``E`` is taken half a kick from the
-    step's end), so the residual is first order in ``dt``: at every diagnostic time it halves
-    with the step, to within 10%, the same bond breaking at the same time in both runs."""
-    residual, breaks = {}, {}
+    the shelf break a bond): ``E + ledgers``, with ``E`` read at the step time (docs/model.md,
+    "What the budget promises"), stays within 1e-3 of the largest energy released at every
+    diagnostic time, and its largest departure shrinks with the step at least as fast as
+    first order (what is left is the velocity changes the ledgers book whose half-kick
+    offset they do not: the drag's and the dashpots' against the water's forces), the same
+    bond breaking at the same time in both runs."""
+    residual, breaks, released = {}, {}, {}
     for dt in (0.01, 0.005):
         d = run_text(tmp_path, CUT_SHELF.replace("dt = 0.01\n", f"dt = {dt}\n"), f"{dt}.h5")
         e = budget(d)
         residual[dt], breaks[dt] = e - e[0], d["bonds"]["break_time"]
+        pe = d["diagnostics"]["potential_energy"]
+        released[dt] = np.max(np.abs(pe[0] - pe))
     assert np.isfinite(breaks[0.01]).sum() >= 1
     np.testing.assert_array_equal(np.isfinite(breaks[0.01]), np.isfinite(breaks[0.005]))
     np.testing.assert_allclose(breaks[0.005], breaks[0.01], atol=0.011)
-    assert np.abs(residual[0.01][1:]).min() > 1e-3 * np.abs(residual[0.01]).max()  # above rounding throughout
-    np.testing.assert_allclose(residual[0.01][1:], 2 * residual[0.005][1:], rtol=0.1)
+    for dt in residual:
+        assert np.abs(residual[dt]).max() <= 1e-3 * released[dt], dt
+    assert np.abs(residual[0.01]).max() >= 1.8 * np.abs(residual[0.005]).max()

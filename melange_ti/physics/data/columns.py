@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-ROLES = ("state", "constant", "cache", "scratch", "ledger", "counter", "config")
+ROLES = ("state", "constant", "cache", "scratch", "ledger", "counter", "config", "reading")
 E = "rho_w g w^3"  # energy per unit length into the page (g = rho_w = w = 1)
 
 

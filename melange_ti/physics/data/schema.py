@@ -22,6 +22,8 @@ Roles:
               into a diagnostic and kept in checkpoints
 ``counter``   an integer count or flag (``contacts`` is a ledger of impulses applied)
 ``config``    an integer setting of the run (N, discs per face, ...)
+``reading``   what the last step left for the diagnostics to read (the forces' half kick);
+              sampled, never checkpointed: the step after a resume writes it afresh
 
 Effects (:mod:`melange_ti.physics.effects`) add their own columns (parameters, per-body
 ledgers, scratch) when they are registered; a new ledger column is then checkpointed and
@@ -108,6 +110,14 @@ def _bodies(effect_columns: tuple[Column, ...], beyond: tuple[Column, ...] = ())
         Column("RADIUS", "constant", "w", "radius of the collision discs"),
         Column("BOUND", "constant", "w", "bounding radius, half the diagonal (a polygon: its farthest corner)"),
         Column("MOTION", "scratch", "w", "broad phase: how far it moves at its current velocities"),
+        Column(
+            "HALF_KICK",
+            "reading",
+            E,
+            "the last step's forces' half kick: dt/2 times the power of the forces its kick applied at the "
+            "velocities before it (kinetic_energy reads the kinetic energy at the step time with it)",
+            "half_kick",
+        ),
     )
     line2 = [
         Column("TH", "state", "rad", "tilt, counter-clockwise, 0 upright; continuous (not wrapped)", "theta"),

@@ -58,13 +58,16 @@ class Quantity:
     """A named value an effect gives at every output event (``held``: an energy it holds,
     part of ``E``; a diagnostic of that name): units, meaning, the run-file format version
     that first holds it, and its value in a run without the effect (``without``, from the
-    output event's sample; 0 unless given)."""
+    output event's sample; 0 unless given). ``at_step``: for a held energy, the key of the
+    effect's sample that holds it as the run's diagnostic reads it, at the step time from the
+    positions alone (docs/model.md, "What the budget promises"), where that is not ``name``."""
 
     name: str
     units: str
     doc: str
     since: int = 1
     without: Callable[[dict], float] = _zero
+    at_step: str = ""
 
 
 @dataclass(frozen=True)

@@ -82,6 +82,10 @@ def kick(fx: ti.template(), a: ti.template(), i):
         b[i, Body.VZ] += dt * fz / m
     if ti.static(any_on(HAS_TORQUE, fx)):
         b[i, Body.OM] += dt * tau / inertia
+    # the half kick: the kinetic energy at the step time is the product of the velocities before
+    # and after the forces' kick, 0.5 m v0 . (v0 + dv), i.e. that of v0 plus this (docs/model.md,
+    # "What the budget promises"); the diagnostics read it, the step never does
+    b[i, Body.HALF_KICK] = 0.5 * dt * (fxs * v0[0] + fz * v0[1] + tau * v0[2])
     for e in ti.static(AFTER_KICK):
         if ti.static(e.on(fx)):
             ti.static(term(e, "after_kick"))(a, i)

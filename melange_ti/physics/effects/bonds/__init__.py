@@ -240,9 +240,9 @@ EFFECT = Effect(
         Quantity(
             "bond_energy",
             E,
-            "elastic energy of the intact bonds (stretch, shear and bending), as the time step keeps it (0 without "
-            "the bonds effect)",
+            "elastic energy of the intact bonds (stretch, shear and bending) at the positions (0 without the bonds effect)",
             since=6,
+            at_step="bond_energy_at_step",
         ),
     ),
     reports=(

@@ -449,6 +449,7 @@ class BondState(State):
         label = fragments(self.n, t)
         return {
             "bond_energy": np.array(bond_energy(t, bodies, self.dt)),
+            "bond_energy_at_step": np.array(bond_energy(t, bodies)),  # the diagnostic's: U at the positions
             "bonds_intact": np.array(float(np.sum(on))),
             "fragments": np.array(float(np.unique(label).size)),
             "fragment": label,
