@@ -35,6 +35,7 @@ PAPER_EFFECTS: tuple[str, ...] = tuple(e.name for e in REGISTRY if not e.beyond_
 BY_NAME = {e.name: e for e in REGISTRY}
 FORCES = tuple(e for e in REGISTRY if "force" in e.terms)
 DAMPERS = tuple(e for e in REGISTRY if "damp" in e.terms)
+OFFSET_KICK = tuple(e for e in REGISTRY if "offset_kick" in e.terms)
 AFTER_KICK = tuple(e for e in REGISTRY if "after_kick" in e.terms)
 ADDED = tuple(e for e in REGISTRY if "added_inertia" in e.terms)
 POST_DRIFT = tuple(e for e in REGISTRY if "post_drift" in e.terms)
@@ -108,6 +109,7 @@ __all__ = [
     "Key",
     "FORCES",
     "DAMPERS",
+    "OFFSET_KICK",
     "AFTER_KICK",
     "ADDED",
     "POST_DRIFT",

@@ -120,6 +120,12 @@ class Effect:
                                                to its energy as the step keeps it (the bonds'
                                                ``bond_offset_work``): the impulses' half-kick
                                                offset then leaves its force's kick out
+    ``offset_kick(a, i) -> ti.Vector([f_x, f_z, tau])``
+                                               the force whose ``dt / m`` the impulses'
+                                               half-kick offset adds to this step's kick of
+                                               the velocities (``KICK_VX``, ...), for a force
+                                               that kicks less often than every step (the
+                                               waves': the slow kick's offset over its step)
     ``added_inertia(a, i) -> ti.Vector([m_a, I_a])``
                                                mass and moment of inertia added to the
                                                iceberg's own (the water it carries)
@@ -229,7 +235,18 @@ class Effect:
         return bool(getattr(fx, self.name))
 
 
-TERMS = ("force", "added_inertia", "after_kick", "damp", "post_drift", "potential", "impulse", "joined", "joined_wall")
+TERMS = (
+    "force",
+    "offset_kick",
+    "added_inertia",
+    "after_kick",
+    "damp",
+    "post_drift",
+    "potential",
+    "impulse",
+    "joined",
+    "joined_wall",
+)
 
 
 class State:

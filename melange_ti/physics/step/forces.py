@@ -14,7 +14,7 @@ import taichi as ti
 
 from .. import fmath
 from ..data.schema import Body, Param
-from ..effects import ADDED, AFTER_KICK, DAMPERS, FORCES, POST_DRIFT, POTENTIALS
+from ..effects import ADDED, AFTER_KICK, DAMPERS, FORCES, OFFSET_KICK, POST_DRIFT, POTENTIALS
 from .terms import term
 
 HAS_TORQUE = tuple(e for e in FORCES if e.torque)
@@ -97,6 +97,12 @@ def kick(fx: ti.template(), a: ti.template(), i):
         b[i, Body.KICK_VX] = b[i, Body.VX] - v0[0]
         b[i, Body.KICK_VZ] = b[i, Body.VZ] - v0[1]
         b[i, Body.KICK_OM] = b[i, Body.OM] - v0[2]
+        for e in ti.static(OFFSET_KICK):  # a force kicking less often: its offset over its own step
+            if ti.static(e.on(fx)):
+                g = ti.static(term(e, "offset_kick"))(a, i)
+                b[i, Body.KICK_VX] += dt * g[0] / m
+                b[i, Body.KICK_VZ] += dt * g[1] / m
+                b[i, Body.KICK_OM] += dt * g[2] / inertia
         if ti.static(any_on(OWN_OFFSET, fx)):
             # booked by that effect (bond_offset_work counts the impulses' change of velocity):
             # counted here too, an impulse's offset was booked twice (docs/bonds.md, Energy)

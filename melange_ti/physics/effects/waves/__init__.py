@@ -169,8 +169,11 @@ EFFECT = Effect(
             "PUSH_X", "state", "w", "waves: the overlap correction's pushes since the wave step opened, x (they move no water)"
         ),
         Column("PUSH_Z", "state", "w", "waves: the same, z"),
+        Column("WAVE_FX", "state", "rho_w g w^2", "waves: the wave's pressure force at the wave step's opening, x"),
+        Column("WAVE_FZ", "state", "rho_w g w^2", "waves: the same, z"),
+        Column("WAVE_TAU", "state", "rho_w g w^3", "waves: the same, its torque"),
     ),
-    terms=("force",),
+    terms=("force", "offset_kick"),
     torque=True,
     horizontal=True,
     beyond_paper=True,

@@ -11,7 +11,7 @@ import taichi as ti
 from ...data.schema import Body, Param
 from ...shape import hydrostatics as shape
 from . import SUB, Wave
-from .grid import cells, closes, every, opens
+from .grid import cells, closes, every, opens, phase
 
 
 @ti.func
@@ -103,12 +103,32 @@ def force(a: ti.template(), i):
     opening its submerged area also leaves the source column (:func:`displace`)."""
     f = ti.Vector([0.0, 0.0, 0.0])
     if opens(a):
-        f = pressure(a, i) * (every(a) * 1.0)
+        p = pressure(a, i)
+        f = p * (every(a) * 1.0)
         b = ti.static(a.b)
         displace(a, i, b[i, Body.X], b[i, Body.Z], -1.0)
         b[i, Body.PUSH_X] = 0.0
         b[i, Body.PUSH_Z] = 0.0
+        b[i, Body.WAVE_FX] = p[0]  # kept over the wave step for the impulses' offset (offset_kick)
+        b[i, Body.WAVE_FZ] = p[1]
+        b[i, Body.WAVE_TAU] = p[2]
     return f
+
+
+@ti.func
+def offset_kick(a: ti.template(), i):
+    """The wave's share of the impulses' half-kick offset at this step (docs/model.md, Waves,
+    "Energy"): the wave kicks once per wave step of K steps, and an impulse at its i-th step
+    changes the energy the wave step keeps by ``dt/2 (K - 2i) F_w . delta`` (``F_w`` the
+    pressure force at the opening, ``delta`` the impulse's change of velocity), so the kick
+    the offset is taken from gains ``(K - 2i) F_w`` here; at the opening (i = 0) the wave's
+    kick itself, ``K F_w``, is already in it."""
+    b = ti.static(a.b)
+    k = phase(a)
+    share = 0.0
+    if k > 0:
+        share = (every(a) - 2 * k) * 1.0
+    return share * ti.Vector([b[i, Body.WAVE_FX], b[i, Body.WAVE_FZ], b[i, Body.WAVE_TAU]])
 
 
 @ti.func

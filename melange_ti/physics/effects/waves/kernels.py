@@ -6,7 +6,7 @@ import taichi as ti
 from ...data.schema import Arrays
 from ...step.parts import Part, Stage
 from . import grid
-from .coupling import close_all, force
+from .coupling import close_all, force, offset_kick
 
 
 @ti.func
@@ -45,4 +45,4 @@ def refresh(cfg: arr, own: arr):
     grid.refresh(a)
 
 
-__all__ = ["force", "STAGES", "refresh"]
+__all__ = ["force", "offset_kick", "STAGES", "refresh"]
