@@ -12,10 +12,11 @@ waves (+ form_drag, + added_mass), no linear drag, dt = 0.01 (the wave step the 
 0.1), until t = 300. Reported:
 the waves' share ``(E_w + absorbed) / released`` at the end, the iceberg's peak kinetic
 energy over the capsize energy ``0.5 r (1 - r) w h (h - w)``, and the budget's residual:
-at the end and the largest over the run, with the energy as the run reports it (from the
-state a step leaves: the velocities and ``phi`` half a kick before the positions and the
-surface) and, without the water's loads, at the step time (those half a kick on: the mean
-of two steps'; docs/model.md, "Energy").
+at the end and the largest over the run, with the energy read from the state a step leaves
+(``Model.sample()``, as run files before format 8 did: the velocities half a kick before the
+positions), as run files read it from format 8 on (with the next step's ``half_kick``:
+docs/model.md, "What the budget promises"), and, without the water's loads, as the mean of
+two steps' velocities and ``phi``.
 Heave runs: a block of thickness 1 (stable) lifted by 0.05 w, with and without waves: the
 heave amplitude left after one and two periods. Each with the wave pressure taken at depth 1
 (the default ``wave_pressure_depth``) and at the surface (0, the long-wave coupling).
@@ -74,7 +75,8 @@ def capsize(cd: float, ca: float, waves: bool = True, depth: float = 1.0, durati
         pot = float(np.sum(s["potential"]))
         e = float(np.sum(s["kinetic"])) + pot + we
         ledgers = float(np.sum(s["drag_dissipated"])) + float(np.sum(s.get("added_mass_work", 0.0))) + tot.wave_absorbed
-        return e, own_ke, ledgers, we + tot.wave_absorbed, float(s["theta"][0]), (v, pot, w)
+        half = float(np.sum(s["half_kick"]))  # this sample's step's half kick: the run file's reading of the one before
+        return e, own_ke, ledgers, we + tot.wave_absorbed, float(s["theta"][0]), (v, pot, w), half
 
     def step_time(before, after) -> float:
         """The energy at the step time of ``before``, the opening of a wave step (its positions
@@ -90,21 +92,25 @@ def capsize(cd: float, ca: float, waves: bool = True, depth: float = 1.0, durati
     first = energy()
     e0 = first[0]
     m.advance(1)
-    e0_step = step_time(first, energy())
+    second = energy()
+    e0_step = step_time(first, second)
+    e0_file = e0 + second[6]  # as the run file reads it (format 8: the next step's half kick)
     at = 1
-    times, waves_share, ke, res, res_step = [], [], [], [], []
+    times, waves_share, ke, res, res_step, res_file = [], [], [], [], [], []
     assert not waves or 10 % m.effect("waves").every == 0  # samples at openings of wave steps
     for step in range(10, round(duration / 0.01) + 1, 10):
         m.advance(step - at)
         before = energy()
         m.advance(1)
+        after = energy()
         at = step + 1
-        e, own, led, w, theta, _ = before
+        e, own, led, w, theta = before[:5]
         times.append(step * 0.01)
         waves_share.append(w / released)
         ke.append(own / released)
         res.append((e0 - e - led) / released)
-        res_step.append((e0_step - step_time(before, energy()) - led) / released)
+        res_step.append((e0_step - step_time(before, after) - led) / released)
+        res_file.append((e0_file - (e + after[6]) - led) / released)
     loads = bool(cd or ca)  # the mean of two steps' velocities is the step time's only without them
     return {
         "form_drag": cd,
@@ -115,6 +121,7 @@ def capsize(cd: float, ca: float, waves: bool = True, depth: float = 1.0, durati
         "ke_peak_fraction": max(ke),
         "residual_fraction": res[-1],
         "largest_residual_fraction": float(np.max(np.abs(res))),
+        "largest_file_residual_fraction": float(np.max(np.abs(res_file))),
         "largest_step_time_residual_fraction": float("nan") if loads else float(np.max(np.abs(res_step))),
         "capsized": int(abs(theta) > math.pi / 4),
         "_t": np.array(times),
@@ -181,6 +188,7 @@ def main() -> None:
                 "residual_fraction",
                 "largest_residual_fraction",
                 "largest_step_time_residual_fraction",
+                "largest_file_residual_fraction",
                 "capsized",
             ]
         )
@@ -199,6 +207,7 @@ def main() -> None:
                     ""
                     if math.isnan(r["largest_step_time_residual_fraction"])
                     else f"{r['largest_step_time_residual_fraction']:.2e}",
+                    f"{r['largest_file_residual_fraction']:.2e}",
                     r["capsized"],
                 ]
             )
