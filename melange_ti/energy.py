@@ -112,17 +112,33 @@ def worst(residual: Any) -> int:
     return int(np.argmax(bad)) if bad.any() else int(np.argmax(np.abs(res)))
 
 
-def budget_promise(residual: float, released: float, time: float) -> str:
+def budget_promise(
+    residual: float, released: float, dissipated: float, time: float, energy: float = 0.0, precision: str = "f64"
+) -> str:
     """One line comparing a run's largest residual over the run (``residual``, at ``time``)
-    with :data:`RESIDUAL_PROMISED` of its largest energy released (``released``)."""
-    if not released:
-        return f"budget: largest residual over the run {residual:.3g} (nothing released)"
-    share = abs(residual) / abs(released)
+    with :data:`RESIDUAL_PROMISED` of the scale :func:`budget_verdict` judges it by: the
+    largest energy released (``released``), or dissipated where that is larger, and no less
+    than the rounding of the run's largest ``|E|`` (``energy``) in its ``precision``."""
+    scale = _scale(released, dissipated, energy, precision)
+    if scale == 0.0:
+        return f"budget: largest residual over the run {residual:.3g} (nothing released or dissipated)"
+    share = abs(residual) / scale
+    of = "released" if abs(released) >= scale else "dissipated" if abs(dissipated) >= scale else "of rounding"
+    what = f"of the largest energy {of}" if of != "of rounding" else "of the rounding of the run's energy"
     where = "within" if share <= RESIDUAL_PROMISED else "past"
     return (
-        f"budget: largest residual over the run {100 * share:.3g}% of the largest energy released (t = {time:g}), "
+        f"budget: largest residual over the run {100 * share:.3g}% {what} (t = {time:g}), "
         f"{where} the {RESIDUAL_PROMISED:.1%} the budget promises at the default time step"
     )
+
+
+def _scale(released: Any, dissipated: Any, energy: float, precision: str) -> float:
+    """What a budget's residual is judged against: the largest energy released or dissipated
+    over the run, and no less than the rounding of its largest ``|E|`` (:data:`ROUNDING_SHARE`,
+    or :data:`ROUNDING_ULPS` of the precision's epsilon where that is larger)."""
+    rel, dis = (np.atleast_1d(np.asarray(a, dtype=float)) for a in (released, dissipated))
+    scale = max(float(np.nanmax(np.abs(rel), initial=0.0)), float(np.nanmax(np.abs(dis), initial=0.0)))
+    return max(scale, max(ROUNDING_SHARE, ROUNDING_ULPS * EPSILON[precision]) * abs(float(energy)))
 
 
 def budget_verdict(
@@ -148,11 +164,10 @@ def budget_verdict(
     dissipated is one). A NaN residual is always told. ``dt`` and ``accepted`` (the scene's time
     step and the largest its hydrostatics accept: docs/model.md, "The largest time step"; when
     known) make the advice concrete."""
-    res, rel, dis, t = (np.atleast_1d(np.asarray(a, dtype=float)) for a in (residual, released, dissipated, time))
+    res, rel, t = (np.atleast_1d(np.asarray(a, dtype=float)) for a in (residual, released, time))
     if res.size == 0:
         return None
-    scale = max(float(np.nanmax(np.abs(rel), initial=0.0)), float(np.nanmax(np.abs(dis), initial=0.0)))
-    scale = max(scale, max(ROUNDING_SHARE, ROUNDING_ULPS * EPSILON[precision]) * abs(float(energy)))
+    scale = _scale(released, dissipated, energy, precision)
     bad = ~np.isfinite(res)
     k = worst(res)
     if not bad.any() and (scale == 0.0 or abs(res[k]) <= RESIDUAL_TRUSTED * scale):

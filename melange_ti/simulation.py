@@ -145,7 +145,14 @@ class RunSummary:
             f"energy: released (potential, E_p(0) - E_p(t)) {self.energy_released:.6g}; lost (E(0) - E(t)) "
             f"{self.energy_lost:.6g} = dissipated {self.dissipated:.6g} + residual {self.energy_residual:.3g} "
             f"({share})",
-            budget_promise(self.residual_largest, self.released_largest, self.residual_largest_time),
+            budget_promise(
+                self.residual_largest,
+                self.released_largest,
+                self.dissipated_largest,
+                self.residual_largest_time,
+                energy=self.energy_largest,
+                precision=self.precision,
+            ),
             *self._untrusted(),
             f"output: {self.path} (ran on Taichi's {self.backend} backend)",
         ]
@@ -296,18 +303,26 @@ class Diagnostics:
                 self.flush(sim)  # the launch stops here: the next step, looked at and undone
 
     def flush(self, sim: Simulation) -> None:
-        """Write the pending row now, with the next step looked at and undone
-        (:meth:`Model.peek`); where that step cannot be taken (the state the guard stops on,
-        or a launch that went past the row's step before an error stopped the run), with the
-        kinetic energy of the velocities the last step left."""
+        """Write the pending row now: with the next step's sample where the launch took it
+        (``sim.ahead``: a run stopped by an error amid a launch's samples), else with the next
+        step looked at and undone (:meth:`Model.peek`) where the model stands at the row's
+        step. Where neither can be had (the state the guard stops on, from which no step goes
+        on; a launch that failed part way) the row is dropped rather than read another way:
+        the file then ends at the row before."""
         if self.pending is None:
             return
-        after = None  # where the model has gone past the row's step (a launch's later samples), or
-        if sim.model_step == self.pending[0]:  # no step can go on from its state: the velocities' own
+        step = self.pending[0]
+        after = None
+        if sim.ahead is not None and sim.ahead[0] == step + 1:
+            after = sim.ahead[1][0]
+        elif sim.model_step == step:
             try:
                 after = sim.model.peek(1)[0]
             except Exception:  # non-finite, contact slots overflowing
                 after = None
+        if after is None:
+            self.pending = None
+            return
         self._finish(sim, after)
 
     def take(self, step: int, t: float, sampled: tuple) -> None:
@@ -549,7 +564,8 @@ class Simulation:
         t0 = wallclock.perf_counter()
         self.startup = None  # (seconds, steps) of the first launch
         step = start_step
-        self.model_step = step
+        self.model_step = step  # where the model stands (Diagnostics.flush)
+        self.ahead = None  # (step, sample) the launch took after the events being run, if any
         interrupt = _DeferredInterrupt()
         try:
             if not self.resume:
@@ -563,6 +579,7 @@ class Simulation:
                 stops = self._batch(step)
                 cap = self._launch_cap(step, stops, pace)
                 launched = wallclock.perf_counter()
+                self.model_step, self.ahead = None, None  # until the launch returns: unknown
                 if stops[0] - step > cap:  # a part of the way to the next event: no output
                     model.advance(cap)
                     stops, sampled = [step + cap], None
@@ -576,13 +593,15 @@ class Simulation:
                     self.startup = (wallclock.perf_counter() - t0, stops[-1] - step)
                     watch.close()
                     self._said_compiling(seen, bar)
-                for nxt, got in zip(stops, sampled or [None], strict=True):
+                for k, (nxt, got) in enumerate(zip(stops, sampled or [None], strict=True)):
                     if bar is not None:
                         if step == start_step:
                             bar.set_description("running")
                         bar.update(nxt - step)
                     step = nxt
                     if got is not None:
+                        # the launch's next sample, for a row an error would leave waiting
+                        self.ahead = (stops[k + 1], sampled[k + 1]) if k + 1 < len(stops) else None
                         self._events(step, sampled=got)
         except OutputError:
             writer.close()

@@ -20,7 +20,7 @@ import pytest
 import melange_ti as mt
 from melange_ti import cli
 from melange_ti import scene as scn
-from melange_ti.energy import budget_series, total_energy
+from melange_ti.energy import RESIDUAL_PROMISED, budget_series, total_energy
 from melange_ti.geometry import potential_energy
 from melange_ti.io.hdf5 import read_run
 from melange_ti.scene import DENSITY_RATIO as R
@@ -170,6 +170,35 @@ def test_summary_warns_when_the_residual_is_too_large_to_trust():
     assert any(ln.startswith("warning:") for ln in _summary(**quiet))
     assert not any(ln.startswith("warning:") for ln in _summary(**quiet, precision="f32"))
     assert any(ln.startswith("warning:") for ln in _summary(1.0, 0.1, energy=2.0, precision="f32"))
+
+
+def test_summary_says_how_the_run_kept_the_budgets_promise():
+    """The line ``budget:`` compares the largest residual over the run with the promise
+    (``RESIDUAL_PROMISED`` of the largest energy released: docs/model.md, "What the budget
+    promises"), judged by the same scale as the warning, so the two never disagree: a struck
+    iceberg by what the ledgers booked, a still scene by its energy's rounding."""
+
+    def said(**kw) -> str:
+        (line,) = [ln for ln in _summary(**kw) if ln.startswith("budget:")]
+        return line
+
+    assert "within the 0.1%" in said(released=2.0, residual=0.0, largest=0.99 * RESIDUAL_PROMISED * 2.0)
+    line = said(released=2.0, residual=0.0, largest=-1.01 * RESIDUAL_PROMISED * 2.0)
+    assert "past the 0.1%" in line and "0.101% of the largest energy released (t = 7)" in line, line
+    # a struck iceberg: little released, much booked; within, as the warning is silent
+    line = said(released=0.1, residual=5e-4, dissipated=1.0)
+    assert (
+        "within" in line
+        and "dissipated" in line
+        and not any(ln.startswith("warning:") for ln in _summary(0.1, 5e-4, dissipated=1.0))
+    )
+    # a still scene at rounding: within, judged against its energy's rounding
+    line = said(released=1e-16, residual=-1e-16, dissipated=1e-16, energy=0.8)
+    assert "within" in line and "rounding" in line, line
+    assert "nothing released" in said(released=0.0, residual=0.0)
+    # past the promise but short of the warning: said, not warned
+    lines = _summary(2.0, 0.0, largest=0.005 * 2.0)
+    assert any("past the 0.1%" in ln for ln in lines) and not any(ln.startswith("warning:") for ln in lines)
 
 
 def test_a_run_near_its_time_step_limit_is_flagged_in_the_summary_and_the_plot(tmp_path, capsys):

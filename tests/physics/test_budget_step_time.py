@@ -84,16 +84,17 @@ def lone_text(dt: float, waves: bool) -> str:
 def test_a_lone_capsize_keeps_the_promise_at_every_instant_and_converges(tmp_path, waves):
     """A 1 x 1.6 block capsizing from 0.01 rad (gravity and buoyancy; with waves over water 4
     deep at the default wave step): the largest residual over the run within
-    ``RESIDUAL_PROMISED`` (0.1%) of the largest energy released at the default step, and it
-    shrinks with the step: to second order without waves (a quarter, within 15%), by at least
-    2.5 with the waves' step halving alongside."""
-    share = {dt: largest_share(run(tmp_path, lone_text(dt, waves), f"lone{dt}")) for dt in (0.01, 0.005)}
+    ``RESIDUAL_PROMISED`` (0.1%) of the largest energy released at the default step, and
+    second order in the step: without waves a quarter at half the step (within 15%); with
+    waves, whose step halves alongside, a sixteenth at a quarter of the step (within 30%: the
+    first halving gains less, 3.0, the second more, 5.3)."""
+    steps = (0.01, 0.005, 0.0025) if waves else (0.01, 0.005)
+    share = {dt: largest_share(run(tmp_path, lone_text(dt, waves), f"lone{dt}")) for dt in steps}
     assert share[0.01] <= RESIDUAL_PROMISED, share
-    ratio = share[0.01] / share[0.005]
     if waves:
-        assert ratio >= 2.5, share
+        assert 16 / 1.3 <= share[0.01] / share[0.0025] <= 16 * 1.3, share
     else:
-        assert 4 / 1.15 <= ratio <= 4 * 1.15, share
+        assert 4 / 1.15 <= share[0.01] / share[0.005] <= 4 * 1.15, share
 
 
 def test_a_bonded_pair_that_breaks_and_capsizes_keeps_the_promise(tmp_path):
@@ -159,10 +160,11 @@ def test_the_wave_step_leaves_the_budget_of_a_jostling_melange_as_a_wave_step_ev
 
 
 def test_every_form_writes_the_same_half_kick_and_wave_step_offset(tmp_path):
-    """The half kick (``half_kick``, read by ``kinetic_energy``) and the wave step's share of
-    the impulses' offset (``impulse_offset_work``, the waves' ``offset_kick``) in every
-    kernel form, bit for bit: twelve of the paper's icebergs rocking in waves, 1495 steps, the
-    last half a wave step past an opening, after the first contacts (from about step 900)."""
+    """The half kick (``half_kick``, read by ``kinetic_energy``) and the impulses' offset
+    (``impulse_offset_work``, with the waves' ``offset_kick`` share in it: that the share is
+    booked at all, the test of sixty icebergs above holds) in every kernel form, bit for
+    bit: twelve of the paper's icebergs rocking in waves, 1495 steps, the last half a wave
+    step past an opening, after the first contacts (from about step 900)."""
     text = (Path(__file__).resolve().parents[2] / "runs" / "paper_waves.toml").read_text()
     sets = [
         ("shelf.count", 12),

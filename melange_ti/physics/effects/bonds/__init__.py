@@ -211,8 +211,8 @@ EFFECT = Effect(
             "ledger",
             E,
             "dt/2 times its bonds' force times the velocity changes made after the forces' kick (damping, "
-            "impulses): the bonds' energy as the step keeps it moves by that; -> 0 as dt -> 0 (0 without the bonds "
-            "effect)",
+            "impulses): their energy with their half kick, U + dt/2 F . v, moves by that; -> 0 as dt -> 0 (0 "
+            "without the bonds effect)",
             "bond_offset_work",
             budget=True,
             since=6,
