@@ -374,7 +374,8 @@ class Snapshots:
 
     name = "snapshots"
     at_end = True
-    from_sample = False  # writes the state at the end of a launch: a batch stops here (Simulation._batch)
+    from_sample = True  # writes the sample's state (Model.sample holds every dataset a snapshot has)
+    ends_batch = True  # written as soon as it is reached: a batch stops here, or one step on (Simulation._batch)
 
     def __init__(self, schedule: IterationInterval):
         self.schedule = schedule
@@ -675,8 +676,11 @@ class Simulation:
     def _batch(self, step: int) -> list[int]:
         """The event steps after ``step`` that one launch can run through
         (:meth:`Model.advance_sampled`): up to the first where an output that needs the
-        model itself is due (a snapshot or checkpoint: ``from_sample`` false) or the end,
-        at most ``BATCH_MAX`` events and ``BATCH_BYTES`` of samples."""
+        model itself is due (a checkpoint: ``from_sample`` false) or the end, or where a
+        snapshot is due (``ends_batch``: the file holds it as soon as the run reaches it), at
+        most ``BATCH_MAX`` events and ``BATCH_BYTES`` of samples. A batch that ends at a
+        snapshot with a diagnostic row there runs one step on, to the step that completes
+        the row, rather than look at it and undo it (:meth:`Model.peek`)."""
         per_event = 8 * self.model.n * len(SAMPLE_NAMES)
         if self.model.owned:  # and a copy of the owners' table per event
             per_event += 8 * int(np.prod(self.model.arrays.own.shape))
@@ -685,7 +689,12 @@ class Simulation:
         while len(stops) < cap and step < self.total:
             step = min(min(o.schedule.next(step) for o in self.outputs if o.schedule is not None), self.total)
             stops.append(step)
-            if not all(o.from_sample for o in self._due(step)):
+            due = self._due(step)
+            if not all(o.from_sample for o in due):
+                break
+            if any(getattr(o, "ends_batch", False) for o in due):
+                if self.diagnostics in due and step < self.total and self.diagnostics.schedule.on_grid(step):
+                    stops.append(step + 1)  # the follower of the row at the snapshot (a schedule's own stop)
                 break
         return stops
 

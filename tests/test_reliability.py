@@ -485,8 +485,9 @@ def test_ctrl_c_checkpoints_where_the_run_stops(tmp_path):
     assert "melange-ti run --out run.h5 --resume" in said[0], said[0]
     step = int(load(tmp_path / "run.h5.ckpt")["step"])
     assert t_said >= 7 * KILL_SCENE["snap"] and step == round(t_said / 0.01), (t_said, step)
-    with h5py.File(tmp_path / "run.h5") as f:
-        assert f["diagnostics/time"][-1] == pytest.approx(t_said)
+    with h5py.File(tmp_path / "run.h5") as f:  # every diagnostic row up to where it stopped
+        last = f["diagnostics/time"][-1]
+        assert last <= t_said + 1e-9 and t_said - last < KILL_SCENE["diag"] - 1e-9, (last, t_said)
     proc = run_cli(["run", "--out", "run.h5", "--threads", "1", "--resume"], tmp_path)
     assert proc.returncode == 0, proc.stderr
     with h5py.File(tmp_path / "run.h5") as f:
