@@ -389,28 +389,30 @@ class Model:
         and ``potential`` energy (:data:`stages.SAMPLE_NAMES`)."""
         return self.sample_with_totals()[0]
 
-    def sample_with_totals(self) -> tuple[dict[str, np.ndarray], Totals]:
+    def sample_with_totals(self, owners: bool = True) -> tuple[dict[str, np.ndarray], Totals]:
         """:meth:`sample` and :meth:`totals` of the same instant, in one kernel launch (an
-        output event's whole fetch)."""
+        output event's whole fetch); without ``owners``, the icebergs' columns alone (no
+        owning effect's part: the waves' energy, the bonds' fragments)."""
         a = self.arrays
         stages.sample_all(self.fx, a.b, a.par, a.acc, a.cnt, self._out, self._out_acc, self._out_cnt)
-        return self._unpack(self._out, self._out_acc, self._out_cnt, None, 0)
+        return self._unpack(self._out, self._out_acc, self._out_cnt, None, 0, owners)
 
-    def advance_sampled(self, segments: list[int]) -> list[tuple[dict[str, np.ndarray], Totals]]:
+    def advance_sampled(self, segments: list[int], light: tuple[int, ...] = ()) -> list[tuple[dict[str, np.ndarray], Totals]]:
         """Advance ``segments[0]`` steps and take :meth:`sample_with_totals`, then
         ``segments[1]`` steps and sample again, ...; the serial form does it all in one
         kernel launch (a run's output events between two writes). The same bits as
-        :meth:`advance` and :meth:`sample_with_totals` in turn."""
+        :meth:`advance` and :meth:`sample_with_totals` in turn. The samples numbered in
+        ``light`` leave the owning effects' part out (``owners=False``)."""
         if self.mode != "serial" or self._calibrate or len(segments) < 2:
             out = []
-            for steps in segments:
+            for k, steps in enumerate(segments):
                 self.advance(steps)
-                out.append(self.sample_with_totals())
+                out.append(self.sample_with_totals(owners=k not in light))
             return out
         bufs = self._sample_buffers(len(segments))
         stages.steps_serial_sampled(self.fx, np.asarray(segments, dtype=np.int32), *self.arrays.ndarrays(), *bufs)
         self._check_overflow()
-        return [self._unpack(*bufs, k) for k in range(len(segments))]
+        return [self._unpack(*bufs, k, k not in light) for k in range(len(segments))]
 
     def peek(self, steps: int = 1) -> tuple[dict[str, np.ndarray], Totals]:
         """:meth:`sample_with_totals` ``steps`` steps on, leaving the model as it was: every
@@ -423,8 +425,9 @@ class Model:
         colours, calibrate = self._colours, self._calibrate
         self._calibrate = False
         try:
-            self.advance(steps)
-            return self.sample_with_totals()
+            # the fused kernel a run's launches use (a second, empty segment makes it one):
+            # a run that never needed the plain stepping kernel does not load it for this
+            return self.advance_sampled([steps, 0])[0]
         finally:
             for x, v in zip(arrays, saved, strict=True):
                 x.from_numpy(v)
@@ -443,13 +446,13 @@ class Model:
         shape = self.arrays.own.shape
         return (*bufs, np.zeros((count, *shape), dtype=self.np_real))
 
-    def _unpack(self, out, out_acc, out_cnt, out_own, k: int) -> tuple[dict[str, np.ndarray], Totals]:
+    def _unpack(self, out, out_acc, out_cnt, out_own, k: int, owners: bool = True) -> tuple[dict[str, np.ndarray], Totals]:
         """Sample ``k`` of the buffers; each owning effect's part from its rows of the owners'
         table, copied in the launch (``out_own``) or, ``None``, fetched now: the same values."""
         sample = {name: out[k, :, q].copy() for q, name in enumerate(stages.SAMPLE_NAMES)}
         if self.axis is not None:  # polygons: the principal axes the capsize angle is measured by
             sample["axis"] = self.axis
-        if self.owned:
+        if self.owned and owners:
             whole = self.own_rows() if out_own is None else out_own[k]
             for name, state in self.owned.items():
                 sample.update(state.sample(self.own_rows(name, whole), sample))

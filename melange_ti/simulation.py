@@ -586,7 +586,8 @@ class Simulation:
                     stops, sampled = [step + cap], None
                 else:
                     stops = [s for s in stops if s - step <= cap]
-                    sampled = model.advance_sampled([b - a for a, b in zip((step, *stops[:-1]), stops, strict=True)])
+                    light = tuple(k for k, s in enumerate(stops) if self._completes_only(s))
+                    sampled = model.advance_sampled([b - a for a, b in zip((step, *stops[:-1]), stops, strict=True)], light)
                 self.model_step = stops[-1]  # where the model stands (its samples may be of earlier steps)
                 if self.startup is not None:  # the first launch's pace is its compiling
                     pace = (stops[-1] - step) / max(wallclock.perf_counter() - launched, 1e-9)
@@ -668,10 +669,18 @@ class Simulation:
 
     def _due(self, step: int) -> list:
         """The outputs due at ``step``, in list order; those without a schedule (the guard)
-        whenever any other is due."""
+        whenever any other is due, but for a step that only completes a diagnostic row."""
         final = step == self.total
         due = [o for o in self.outputs if o.schedule is not None and (o.at_end if final else o.schedule(step))]
+        if due == [self.diagnostics] and not final and not self.diagnostics.schedule.on_grid(step):
+            return due  # the step after a row: its sample only completes the row (half_kick)
         return [o for o in self.outputs if o in due or (due and o.schedule is None)]
+
+    def _completes_only(self, step: int) -> bool:
+        """Whether the one output due at ``step`` is the diagnostics completing the row of the
+        step before: its sample needs the icebergs' columns alone (Model.sample_with_totals,
+        ``owners=False``)."""
+        return not self.diagnostics.schedule.on_grid(step) and self._due(step) == [self.diagnostics] and step != self.total
 
     def _batch(self, step: int) -> list[int]:
         """The event steps after ``step`` that one launch can run through
