@@ -391,8 +391,8 @@ class Model:
 
     def sample_with_totals(self, owners: bool = True) -> tuple[dict[str, np.ndarray], Totals]:
         """:meth:`sample` and :meth:`totals` of the same instant, in one kernel launch (an
-        output event's whole fetch); without ``owners``, the icebergs' columns alone (no
-        owning effect's part: the waves' energy, the bonds' fragments)."""
+        output event's whole fetch); without ``owners``, the icebergs' columns alone (none of
+        the owning effects' part, :meth:`State.sample`)."""
         a = self.arrays
         stages.sample_all(self.fx, a.b, a.par, a.acc, a.cnt, self._out, self._out_acc, self._out_cnt)
         return self._unpack(self._out, self._out_acc, self._out_cnt, None, 0, owners)
@@ -425,9 +425,11 @@ class Model:
         colours, calibrate = self._colours, self._calibrate
         self._calibrate = False
         try:
-            # the fused kernel a run's launches use (a second, empty segment makes it one):
-            # a run that never needed the plain stepping kernel does not load it for this
-            return self.advance_sampled([steps, 0])[0]
+            if self.mode == "serial":  # the fused kernel a run's launches use (an empty second
+                # segment makes it one): a run that never needed the plain one does not load it
+                return self.advance_sampled([steps, 0])[0]
+            self.advance(steps)
+            return self.sample_with_totals()
         finally:
             for x, v in zip(arrays, saved, strict=True):
                 x.from_numpy(v)

@@ -164,11 +164,11 @@ def test_interrupt_acts_within_a_second_on_a_slow_backend(tmp_path, monkeypatch,
             time.sleep(steps * per_step)
         return real_advance(self, steps)
 
-    def slow_sampled(self, segments):
+    def slow_sampled(self, segments, light=()):
         time.sleep(sum(segments) * per_step)
         inside.append(1)
         try:
-            return real_sampled(self, segments)
+            return real_sampled(self, segments, light)
         finally:
             inside.pop()
 
