@@ -22,7 +22,7 @@ class Event(NamedTuple):
     totals: Any  # Model.Totals of the same instant (run-wide ledgers and the impulse count)
     previous: Any  # totals at the previous diagnostic: t, impulses, wall_impulse, impulse_sum
     x0_max: float  # max_i x_i(0)
-    after: dict[str, np.ndarray] | None = None  # Model.sample() one step later (None: not read)
+    after: dict[str, np.ndarray]  # Model.sample() one step later (its half_kick)
 
     def rate(self, name: str) -> float:
         """Change of the run-wide total ``name`` per unit time since the previous diagnostic."""
@@ -33,12 +33,9 @@ class Event(NamedTuple):
         """The kinetic energy at the step time: ``0.5 m v0 . v1`` summed, ``v0`` the velocities
         the step before left (half a kick before the step time), ``v1`` those after the next
         step's forces' kick (half a kick after it): the sample's kinetic energy plus the next
-        step's ``half_kick`` (docs/model.md, "What the budget promises"). Without ``after``,
-        the sample's own."""
+        step's ``half_kick`` (docs/model.md, "What the budget promises")."""
         ke = float(np.sum(self.sample["kinetic"], dtype=np.float64))
-        if self.after is not None:
-            ke += float(np.sum(self.after["half_kick"], dtype=np.float64))
-        return ke
+        return ke + float(np.sum(self.after["half_kick"], dtype=np.float64))
 
 
 class Field(NamedTuple):

@@ -123,8 +123,12 @@ def budget_promise(
     if scale == 0.0:
         return f"budget: largest residual over the run {residual:.3g} (nothing released or dissipated)"
     share = abs(residual) / scale
-    of = "released" if abs(released) >= scale else "dissipated" if abs(dissipated) >= scale else "of rounding"
-    what = f"of the largest energy {of}" if of != "of rounding" else "of the rounding of the run's energy"
+    if abs(released) >= scale:
+        what = "of the largest energy released"
+    elif abs(dissipated) >= scale:
+        what = "of the largest energy dissipated"
+    else:
+        what = "of the rounding of the run's energy"
     where = "within" if share <= RESIDUAL_PROMISED else "past"
     return (
         f"budget: largest residual over the run {100 * share:.3g}% {what} (t = {time:g}), "

@@ -276,9 +276,10 @@ class Diagnostics:
 
     A row at step ``j`` is written once step ``j + 1`` has run: its kinetic energy is read at
     the step time with that step's half kick (:meth:`diag.Event.kinetic`). Where the run
-    stops at ``j`` (its end, a snapshot or checkpoint, which end a launch, an interrupt or an
-    error) the row looks one step on instead (:meth:`Model.peek`), which changes nothing the
-    run goes on from: the file then holds every row up to where the run stands."""
+    stops at ``j`` (its end, a checkpoint, which ends a launch, an interrupt or an error) the
+    row looks one step on instead (:meth:`Model.peek`), which changes nothing the run goes on
+    from: the file then holds every row up to where the run stands. A snapshot ends its
+    launch one step on instead (:meth:`Simulation._batch`)."""
 
     name = "diagnostics"
     at_end = True
@@ -292,7 +293,7 @@ class Diagnostics:
         self.fields = diag.fields(effects)  # the model's own and those of the effects named
         self.names = tuple(f.name for f in self.fields)
         self.pending: tuple | None = None  # (step, t, sample, totals) of a row waiting for the next step's state
-        self.before = self.counters  # the counters before the last row written
+        self.before: _Counters | None = None  # the counters before the last row written (saved_counters)
 
     def write(self, sim: Simulation, step: int, t: float, s: dict) -> None:
         if self.pending is not None and step == self.pending[0] + 1:
@@ -330,7 +331,7 @@ class Diagnostics:
         :meth:`Model.sample_with_totals` there), completed by the next step as any other."""
         self.pending = (step, t, *sampled)
 
-    def _finish(self, sim: Simulation, after: dict | None) -> None:
+    def _finish(self, sim: Simulation, after: dict) -> None:
         step, t, s, tot = self.pending
         self.pending = None
         c = self.counters
@@ -678,9 +679,9 @@ class Simulation:
 
     def _completes_only(self, step: int) -> bool:
         """Whether the one output due at ``step`` is the diagnostics completing the row of the
-        step before: its sample needs the icebergs' columns alone (Model.sample_with_totals,
-        ``owners=False``)."""
-        return not self.diagnostics.schedule.on_grid(step) and self._due(step) == [self.diagnostics] and step != self.total
+        step before (:meth:`_due` leaves the guard out only there): its sample needs the
+        icebergs' columns alone (Model.sample_with_totals, ``owners=False``)."""
+        return self._due(step) == [self.diagnostics]
 
     def _batch(self, step: int) -> list[int]:
         """The event steps after ``step`` that one launch can run through
