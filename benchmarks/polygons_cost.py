@@ -1,9 +1,11 @@
-"""What polygon outlines cost a step: the paper's row of 400 blocks (1 x 1.4, gap 0.1, tilts of
-0.01 rad, the paper's effects) given by width and thickness (the rectangles' kernels) against
-the same blocks given by their corners (``[[iceberg]] vertices``: the polygons' clipper and
-their narrow phase, every disc pair within reach, no candidate lists), alternating, each in a
-fresh process; ms per step in the serial form on one thread, best of three timed advances of
-``--steps`` after ``--warm`` steps (the blocks capsize into each other from t ~ 50).
+"""What outlines cost a step: the paper's row of 400 blocks (1 x 1.4, gap 0.1, tilts of 0.01
+rad, the paper's effects) given by width and thickness (a scene of rectangles: outlines stored
+as two numbers), the same blocks given by their corners (``[[iceberg]] vertices``: every
+outline's corners stored), and parallelograms of the same size whose upright faces lean 20
+degrees (``--kinds``), alternating, each in a fresh process; ms per step in the serial form on
+one thread, best of three timed advances of ``--steps`` after ``--warm`` steps (the blocks
+capsize into each other from t ~ 50). Every outline takes the one narrow phase with candidate
+lists.
 
     python benchmarks/polygons_cost.py --out benchmarks/results/polygons
 
@@ -30,12 +32,18 @@ from melange_ti.geometry import rectangle
 from melange_ti.model import Model
 from melange_ti.scene.initial import equilibrium_z
 
-polygons = sys.argv[1] == "polygons"
+kind = sys.argv[1]
+lean = 0.7 * np.tan(np.radians(20.0))
+shapes = {
+    "polygons": {"vertices": rectangle(1.0, 1.4).tolist()},
+    "parallelograms": {"vertices": [[0.5 - lean, -0.7], [0.5 + lean, 0.7], [-0.5 + lean, 0.7], [-0.5 - lean, -0.7]]},
+    "rectangles": {"width": 1.0, "thickness": 1.4},
+}
 rng = np.random.default_rng(1)
 bergs = []
 for k in range(400):
     b = {"x": 0.6 + 1.1 * k, "z": float(equilibrium_z(1.4, 0.8946, 0.0)), "theta": float(rng.uniform(-0.01, 0.01))}
-    b.update({"vertices": rectangle(1.0, 1.4).tolist()} if polygons else {"width": 1.0, "thickness": 1.4})
+    b.update(shapes[kind])
     bergs.append(b)
 sc = scene.from_dict({"scene": {"name": "row"}, "iceberg": bergs, "time": {"duration": 1.0}})
 m = Model(sc, mode="serial")
@@ -57,12 +65,14 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--warm", type=int, default=10000, help="steps before timing (t = 100: capsizing)")
     p.add_argument("--steps", type=int, default=2000)
+    p.add_argument("--kinds", default="rectangles,polygons,parallelograms", help="rectangles, polygons (corners), parallelograms")
     a = p.parse_args()
+    kinds = a.kinds.split(",")
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for r in range(a.repeats):
-        for kind in ("rectangles", "polygons"):
+        for kind in kinds:
             code = CHILD.replace("{warm}", str(a.warm)).replace("{steps}", str(a.steps))
             res = subprocess.run([sys.executable, "-c", code, kind], capture_output=True, text=True, check=True)
             ms = float(res.stdout.strip().splitlines()[-1])
@@ -72,25 +82,23 @@ def main() -> None:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    med = {k: statistics.median(q["ms_per_step"] for q in rows if q["outline"] == k) for k in ("rectangles", "polygons")}
-    print(
-        f"median: rectangles {med['rectangles']:.4f}, polygons {med['polygons']:.4f}, "
-        f"ratio {med['polygons'] / med['rectangles']:.2f}"
-    )
+    med = {k: statistics.median(q["ms_per_step"] for q in rows if q["outline"] == k) for k in kinds}
+    base = med.get("rectangles", med[kinds[0]])
+    print("median: " + ", ".join(f"{k} {v:.4f} ({v / base:.2f}x the time)" for k, v in med.items()))
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(5, 3.2), layout="constrained")
-    for k, mark in (("rectangles", "o"), ("polygons", "s")):
+    for k, mark in zip(kinds, "os^v", strict=False):
         ax.plot(
             [q["repeat"] for q in rows if q["outline"] == k], [q["ms_per_step"] for q in rows if q["outline"] == k], mark, label=k
         )
     ax.set_ylim(0, None)
     ax.set_xlabel("repeat (alternating)")
     ax.set_ylabel("ms per step, serial, 1 thread")
-    ax.set_title(f"400 blocks, capsizing: by corners / by width = {med['polygons'] / med['rectangles']:.2f}", fontsize=9)
+    ax.set_title("400 blocks, capsizing: " + ", ".join(f"{k} {v / base:.2f}" for k, v in med.items()), fontsize=8)
     ax.legend(fontsize=8)
     fig.savefig(out / "polygons_cost.png", dpi=110)
 

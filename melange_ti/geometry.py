@@ -325,14 +325,21 @@ def outline(vertices, density_ratio: float) -> dict:
     corners = v - c
     radii = np.hypot(corners[:, 0], corners[:, 1])
     d = corners[:, None, :] - corners[None, :, :]
+    mass, inertia, bound = density_ratio * area, density_ratio * float(second[0] + second[1]), float(radii.max())
+    width, thickness = float(np.ptp(corners[:, 0])), float(np.ptp(corners[:, 1]))
+    if len(corners) == 4 and np.array_equal(corners, rectangle(width, thickness)):
+        # a rectangle written out (from the lower right): its closed form, the arithmetic of
+        # the same rectangle given by width and thickness (Green's sums agree to an ulp)
+        m, j = mass_inertia(width, thickness, density_ratio)
+        mass, inertia, bound = float(m), float(j), float(0.5 * np.hypot(width, thickness))
     return {
         "corners": corners,
         "centroid": c,
-        "mass": density_ratio * area,
-        "inertia": density_ratio * float(second[0] + second[1]),
-        "bound": float(radii.max()),
-        "width": float(np.ptp(corners[:, 0])),
-        "thickness": float(np.ptp(corners[:, 1])),
+        "mass": mass,
+        "inertia": inertia,
+        "bound": bound,
+        "width": width,
+        "thickness": thickness,
         "diameter": float(np.hypot(d[..., 0], d[..., 1]).max()),
         "axis": principal_axis(second),
     }
@@ -387,36 +394,35 @@ def _discs_of(key: bytes, count: int, discs: int, spacing: float):
 
 
 def _polygon_discs(corners: np.ndarray, discs: int, spacing: float = 2.0) -> tuple[float, np.ndarray, np.ndarray]:
-    """A polygon's collision discs, as the rectangle's rule per edge: one radius ``r``; their
-    centres on the outline moved inwards by ``r`` (:func:`inset`; so the union touches every
-    face and each corner has a disc touching both faces that meet there), each edge ``e``
-    holding ``n_e = ceil(L_e / (spacing r))`` discs from its inset corner, equally spaced
-    (``L_e`` the inset edge's length: no gap between neighbours wider than ``spacing r``),
-    and ``r`` the smallest with ``sum n_e <= discs`` (bisection). Returns ``(r, inset
-    corners (K, 2), n (K,))``; ``r = 0`` when no radius fits: the outline's edges vanish
-    inwards before the discs are few enough (too few ``discs`` for its shape)."""
+    """An outline's collision discs, the rectangle's rule for any outline of ``K`` edges:
+    ``k = discs // K`` discs on every edge (a rectangle's ``discs / 4`` per face), one radius
+    ``r``, their centres on the outline moved inwards by ``r`` (:func:`inset`; so the union
+    touches every face and each corner has a disc touching both faces that meet there), each
+    edge's from its inset corner in ``k`` equal steps towards the next. The inset edge ``e``
+    is ``L_e - r c_e`` long, ``c_e`` the sum of ``cot(angle / 2)`` over its two corners, so its
+    discs are ``(L_e - r c_e) / k`` apart; ``r = max_e L_e / (k spacing + c_e)`` is the
+    smallest radius that leaves no two neighbours on any edge farther apart than ``spacing r``.
+    A rectangle (``c_e = 2``) takes ``r = L / (k spacing + 2)``, :func:`disc_radius`, to the
+    bit. Returns ``(r, inset corners (K, 2), n (K,))``; ``r = 0`` when no radius fits: fewer
+    discs than edges, or an edge that vanishes inwards (too few ``discs`` for its shape)."""
     p = np.asarray(corners, dtype=float)
-
-    def counts(r: float) -> np.ndarray | None:
-        q = inset(p, r)
-        e = np.roll(q, -1, axis=0) - q
-        d = np.roll(p, -1, axis=0) - p
-        if np.any(np.sum(e * d, axis=1) <= 0):  # an edge turned over: r too large
-            return None
-        return np.maximum(1, np.ceil(np.hypot(e[:, 0], e[:, 1]) / (spacing * r) - 1e-12)).astype(np.int64)
-
-    lo, hi = 0.0, float(np.hypot(*(p - p.mean(0)).T).max())
-    for _ in range(100):  # the largest radius before an edge turns over
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if counts(mid) is not None else (lo, mid)
-    top = lo
-    if counts(top) is None or counts(top).sum() > discs:
-        return 0.0, p.copy(), np.zeros(len(p), dtype=np.int64)
-    lo, hi = 0.0, top
-    for _ in range(100):  # the smallest radius whose discs are few enough
-        mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if counts(mid).sum() <= discs else (mid, hi)
-    return hi, inset(p, hi), counts(hi)
+    count = len(p)
+    k = int(discs) // count
+    d = np.roll(p, -1, axis=0) - p
+    length = np.hypot(d[:, 0], d[:, 1])
+    if k < 1 or np.any(length <= 0):
+        return 0.0, p.copy(), np.zeros(count, dtype=np.int64)
+    t = d / length[:, None]  # unit directions, edge e from corner e
+    before = np.roll(t, 1, axis=0)  # the edge that ends at corner e
+    # cot of half the interior angle at corner e: (1 + cos a) / sin a, cos a = -t_in . t_out
+    cot = (1.0 - np.sum(before * t, axis=1)) / (before[:, 0] * t[:, 1] - before[:, 1] * t[:, 0])
+    c = cot + np.roll(cot, -1)  # at edge e's two corners, e and e + 1
+    r = float(np.max(length / (k * spacing + c)))
+    q = inset(p, r)
+    e = np.roll(q, -1, axis=0) - q
+    if np.any(np.sum(e * d, axis=1) < 0):  # an edge turned over: its corners too sharp for k discs
+        return 0.0, p.copy(), np.zeros(count, dtype=np.int64)
+    return r, q, np.full(count, k, dtype=np.int64)
 
 
 def polygon_disc_local(corners: np.ndarray, discs: int, spacing: float = 2.0) -> tuple[np.ndarray, float]:

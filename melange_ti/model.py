@@ -234,7 +234,7 @@ class Model:
         ncells = 1 << max(2, math.ceil(math.log2(max(n, 4)))) if self.fx.collisions else 4
         # candidate lists for the narrow phase, in both forms: the same contacts bit for bit,
         # found faster at every N (docs/performance.md)
-        self.lists = bool(self.fx.collisions) and not self.fx.vertices  # polygons: a search every step
+        self.lists = bool(self.fx.collisions)
         nc = n if self.contacts else 1
         nlists = n if self.lists else 1
 

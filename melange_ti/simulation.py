@@ -25,7 +25,18 @@ from . import diagnostics as diag
 from .energy import RESIDUAL_TRUSTED, budget_promise, budget_series, budget_verdict, runaway, total_energy, worst  # noqa: F401 (RESIDUAL_TRUSTED: as before)
 from .errors import Interrupted, NumericalError, RunError
 from .io import checkpoint
-from .io.hdf5 import COMPLETE_ATTR, FORMAT_VERSION, SCENE_ATTR, OutputError, RunWriter, read_diagnostics, read_run, scene_text
+from .io.hdf5 import (
+    COMPLETE_ATTR,
+    FORMAT_VERSION,
+    OUTLINE_DISCS,
+    OUTLINE_DISCS_ATTR,
+    SCENE_ATTR,
+    OutputError,
+    RunWriter,
+    read_diagnostics,
+    read_run,
+    scene_text,
+)
 from .model import Model
 from .physics.data.schema import BODIES
 from .physics.stages import SAMPLE_NAMES
@@ -753,6 +764,11 @@ class Simulation:
             raise RunError(
                 f"--resume: checkpoint {self.ckpt} was written by an earlier melange_ti that kept no outlines, and "
                 f"{self.out} holds polygons: continue the run with that version, or start it again"
+            )
+        if "corners" in data["icebergs"] and data["attrs"].get(OUTLINE_DISCS_ATTR) != OUTLINE_DISCS:
+            raise RunError(
+                f"--resume: {self.out} holds polygons whose collision discs an earlier melange_ti laid out by another "
+                "rule: continue the run with that version, or start it again"
             )
         text = self.scene.to_toml()
         stored = scene_text(self.out, data)

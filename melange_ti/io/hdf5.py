@@ -54,6 +54,11 @@ from ..physics.effects import REGISTRY
 # version as its ``since``, and the figures read the older files without it.
 FORMAT_VERSION = 8
 SCENE_ATTR = "scene_toml"  # root attribute: the resolved scene, as run (TOML text)
+# root attribute of a file with outlines (polygons): their collision discs' rule, ``discs // K``
+# on each of an outline's K edges (geometry.polygon_discs); a file without it was made with the
+# earlier rule (the fewest discs by bisection), and a resume of it is refused
+OUTLINE_DISCS_ATTR = "outline_discs"
+OUTLINE_DISCS = "discs // corners per edge"
 COMPLETE_ATTR = "complete"  # root attribute: True once the run reached its end
 DIAGNOSTICS = tuple(f.name for f in FIELDS)
 DIAG_INT = tuple(f.name for f in FIELDS if f.dtype.startswith("i"))
@@ -198,6 +203,7 @@ class RunWriter:
         g = f.create_group("icebergs")
         corner = None
         if "corner_u" in constants:  # polygons: the outlines' dimension
+            f.attrs[OUTLINE_DISCS_ATTR] = OUTLINE_DISCS
             corner = f.create_dataset("corner", data=np.arange(np.shape(constants["corner_u"])[1], dtype=np.int64))
             corner.attrs.update({"units": "1", "long_name": "corner of an iceberg's outline, counter-clockwise"})
             corner.make_scale("corner")

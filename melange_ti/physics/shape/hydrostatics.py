@@ -1,11 +1,13 @@
 """Exact hydrostatics of an iceberg's outline under a flat sea surface (Taichi functions).
 
-The outline is a rectangle (from its width and thickness) or a convex polygon (from its
-corners, when the scene has one: ``Effects.vertices``); :func:`corner` alone tells them apart,
-and one clipper serves both. The submerged part is the outline clipped at the water line. Its area ``A`` and first
-moments ``Sx = int (x - x_G) dA``, ``Sz = int (z - z_G) dA`` (about the centre of mass) follow
-from Green's theorem summed edge by edge over the clipped boundary: each edge below the water
-contributes fully, an edge that crosses contributes its submerged piece, and the water-line
+Every outline is a convex polygon; a scene of rectangles alone stores each as its width and
+thickness (two numbers), any other scene every outline's corners (``Effects.vertices``), and
+:func:`corner_uv` alone tells the two stores apart: one clipper serves every outline, and a
+rectangle gives the same bits from either store. The submerged part is the outline clipped at
+the water line. Its area ``A`` and first moments ``Sx = int (x - x_G) dA``, ``Sz = int (z - z_G)
+dA`` (about the centre of mass) follow from Green's theorem summed edge by edge over the clipped
+boundary: each edge below the water contributes fully, an edge that crosses contributes its
+submerged piece, and the water-line
 segment from the exit to the entry crossing closes the polygon. Units: widths, g = rho_w = 1.
 
 The divisors 6 and 12 come in as arguments (:func:`divisors`): on a SPIR-V device they are
@@ -60,37 +62,14 @@ def halves(a: ti.template(), i):
 
 
 @ti.func
-def corner(a: ti.template(), i, k: ti.template(), c, s, hw, hh):
-    """Corner ``k`` of body ``i``'s outline, counter-clockwise, relative to its centre of mass
-    (world orientation, cos and sin of the tilt ``c``, ``s``): a rectangle's from its half
-    width and thickness ``hw``, ``hh`` (:func:`halves`; from the lower right), a polygon's from
-    its body-frame corners."""
-    r = ti.Vector([0.0, 0.0])
-    if ti.static(not polygons(a)):
-        su = ti.static((1.0, 1.0, -1.0, -1.0)[k])
-        sv = ti.static((-1.0, 1.0, 1.0, -1.0)[k])
-        r = ti.Vector([su * hw * c - sv * hh * s, su * hw * s + sv * hh * c])
-    else:
-        u, v = a.b[i, Body.U0 + 2 * k], a.b[i, Body.U0 + 2 * k + 1]
-        r = ti.Vector([u * c - v * s, u * s + v * c])
-    return r
-
-
-@ti.func
 def _wet_edge(a: ti.template(), i, k: ti.template(), c, s, hw, hh, level):
     """Edge ``k`` (corner k to the next, counter-clockwise) clipped at the water line ``level``
     (relative to the centre): its submerged piece ``a -> b``, whether any of it is submerged,
     whether it leaves the water at ``b`` and whether it enters it at ``a``. A polygon's edges
     past its own corners are dry (the kernels visit the scene's most corners)."""
-    n = ti.static(corners(a))
-    p = ti.Vector([0.0, 0.0])
-    q = ti.Vector([0.0, 0.0])
-    has = 1
-    if ti.static(polygons(a)):
-        p, q, has = _edge(a, i, k, c, s)
-    else:
-        p = corner(a, i, k, c, s, hw, hh)
-        q = corner(a, i, ti.static((k + 1) % n), c, s, hw, hh)
+    pu, pv, qu, qv, has = _edge_uv(a, i, k, hw, hh)
+    p = ti.Vector([pu * c - pv * s, pu * s + pv * c])
+    q = ti.Vector([qu * c - qv * s, qu * s + qv * c])
     p_wet = has and p[1] < level
     q_wet = has and q[1] < level
     pa = p
@@ -208,75 +187,100 @@ def wetted(a: ti.template(), i, water_level, ux, uz, six, twelve):
 # ------------------------------------------------------------------ the waves' strips
 # The waves take an iceberg's submerged part strip by strip (physics/effects/waves/coupling.py):
 # its horizontal reach, the thickness of its part below the water line along a vertical line,
-# where it crosses the water line, and that part as a polygon. A rectangle's come from its
-# two pairs of faces (the arithmetic the wave runs were recorded with), a polygon's from its
-# corners (each edge a half-plane of the convex outline).
+# where it crosses the water line, and that part as a polygon. One clipper for every outline:
+# a line is cut by each edge's half-plane in the body frame (:func:`_plane`), and the corners
+# are turned into the world one way (:func:`corner_uv`). A rectangle's edges have normals of
+# exact zeros and ones, so it gets the arithmetic the wave runs were recorded with (its two
+# pairs of faces), whether given by width and thickness or by its four corners.
 
 
 @ti.func
-def _slab(lo, hi, base, offset, half, slope):
-    """Narrow [lo, hi] to where ``|offset + (t - base) slope| <= half`` (one pair of the
-    rectangle's faces, along a line with free coordinate t); empty: hi <= lo."""
-    if slope != 0:
-        t1 = base + (-half - offset) / slope
-        t2 = base + (half - offset) / slope
-        lo = ti.max(lo, ti.min(t1, t2))
-        hi = ti.min(hi, ti.max(t1, t2))
-    elif ti.abs(offset) > half:
-        hi = lo
-    return lo, hi
+def corner_uv(a: ti.template(), i, k: ti.template(), hw, hh):
+    """Corner ``k`` of body ``i``'s outline in its body frame (counter-clockwise; a rectangle's
+    from its half sizes ``hw``, ``hh`` from the lower right, a polygon's as stored)."""
+    u, v = 0.0, 0.0
+    if ti.static(not polygons(a)):
+        u = ti.static((1.0, 1.0, -1.0, -1.0)[k]) * hw
+        v = ti.static((-1.0, 1.0, 1.0, -1.0)[k]) * hh
+    else:
+        u, v = a.b[i, Body.U0 + 2 * k], a.b[i, Body.U0 + 2 * k + 1]
+    return u, v
 
 
 @ti.func
-def _edge(a: ti.template(), i, k: ti.template(), c, s):
-    """A polygon's edge ``k``, corner k to the next counter-clockwise (relative to the centre),
-    and whether the polygon has it (the kernels visit the scene's most corners)."""
-    count = ti.cast(a.b[i, Body.CORNERS], ti.i32)
-    p = corner(a, i, k, c, s, 0.0, 0.0)
-    q = corner(a, i, ti.static((k + 1) % corners(a)), c, s, 0.0, 0.0)
-    if k + 1 == count:
-        q = corner(a, i, 0, c, s, 0.0, 0.0)  # the closing edge
-    return p, q, k < count
+def _edge_uv(a: ti.template(), i, k: ti.template(), hw, hh):
+    """Edge ``k`` of the outline in the body frame, corner k to the next, and whether the
+    outline has it (the kernels visit the scene's most corners)."""
+    pu, pv = corner_uv(a, i, k, hw, hh)
+    qu, qv = corner_uv(a, i, ti.static((k + 1) % corners(a)), hw, hh)
+    real = True
+    if ti.static(polygons(a)):
+        count = ti.cast(a.b[i, Body.CORNERS], ti.i32)
+        if k + 1 == count:
+            qu, qv = corner_uv(a, i, 0, hw, hh)  # the closing edge
+        real = k < count
+    return pu, pv, qu, qv, real
+
+
+_RECT_NU = (1.0, 0.0, -1.0, 0.0)  # a rectangle's outward normals, edge by edge
+_RECT_NV = (0.0, 1.0, 0.0, -1.0)
 
 
 @ti.func
-def _line(a: ti.template(), i, c, s, ox, oz, dx, dz):
-    """The range [lo, hi] of t where the line ``(ox, oz) + t (dx, dz)`` (relative to the
-    centre) is inside a polygon's outline: the interior is left of every counter-clockwise
-    edge, one linear condition on t per edge; hi <= lo: it misses."""
-    lo = -FAR
-    hi = FAR
-    for k in ti.static(range(corners(a))):
-        p, q, real = _edge(a, i, k, c, s)
+def _plane(a: ti.template(), i, k: ti.template(), hw, hh):
+    """Edge ``k``'s half-plane in the body frame, ``n . (u, v) <= h``: its outward unit normal
+    ``n`` and ``h``, and whether the outline has the edge. A rectangle's are (1, 0), (0, 1),
+    (-1, 0), (0, -1) and its half sizes, exactly; a polygon's from its corners."""
+    nu, nv, h, real = 0.0, 0.0, 0.0, 1
+    if ti.static(not polygons(a)):
+        nu = _RECT_NU[k]  # (a ti.static(...) on the right would bind a new name in this branch)
+        nv = _RECT_NV[k]
+        h = hw if ti.static(k % 2 == 0) else hh
+    else:
+        pu, pv, qu, qv, has = _edge_uv(a, i, k, hw, hh)
+        eu, ev = qu - pu, qv - pv
+        length = ti.sqrt(eu * eu + ev * ev)
+        real = has and length > 0
         if real:
-            ex, ez = q[0] - p[0], q[1] - p[1]
-            rate = ex * dz - ez * dx  # d/dt of the cross product (q - p) x (X(t) - p)
-            at0 = ex * (oz - p[1]) - ez * (ox - p[0])
-            if rate > 0:
-                lo = ti.max(lo, -at0 / rate)
-            elif rate < 0:
-                hi = ti.min(hi, -at0 / rate)
-            elif at0 < 0:
+            nu, nv = ev / length, -eu / length
+            h = nu * pu + nv * pv
+    return nu, nv, h, real
+
+
+@ti.func
+def _clip(a: ti.template(), i, hw, hh, lo, hi, base, ou, ov, su, sv):
+    """Narrow [lo, hi] to the t where the line ``(u, v) = (ou, ov) + (t - base) (su, sv)`` (in
+    body ``i``'s frame) is inside its outline, edge by edge; empty: hi <= lo."""
+    for k in ti.static(range(corners(a))):
+        nu, nv, h, real = _plane(a, i, k, hw, hh)
+        if real:
+            off = nu * ou + nv * ov
+            rate = nu * su + nv * sv
+            if rate != 0:
+                t = base + (h - off) / rate
+                if rate > 0:
+                    hi = ti.min(hi, t)
+                else:
+                    lo = ti.max(lo, t)
+            elif off > h:
                 hi = lo
     return lo, hi
 
 
 @ti.func
 def reach(a: ti.template(), i, c, s, hw, hh):
-    """The outline's horizontal extent about its centre, [lo, hi] (a rectangle's from its half
-    width and thickness ``hw``, ``hh``, :func:`halves`)."""
-    lo, hi = 0.0, 0.0
-    if ti.static(not polygons(a)):
-        hi = hw * ti.abs(c) + hh * ti.abs(s)
-        lo = -hi
-    else:
-        lo, hi = FAR, -FAR
-        count = ti.cast(a.b[i, Body.CORNERS], ti.i32)
-        for k in ti.static(range(corners(a))):
-            if k < count:
-                x = corner(a, i, k, c, s, 0.0, 0.0)[0]
-                lo = ti.min(lo, x)
-                hi = ti.max(hi, x)
+    """The outline's horizontal extent about its centre, [lo, hi] (its corners' least and
+    greatest x; a rectangle's half sizes ``hw``, ``hh``, :func:`halves`)."""
+    lo, hi = FAR, -FAR
+    for k in ti.static(range(corners(a))):
+        u, v = corner_uv(a, i, k, hw, hh)
+        x = u * c - v * s
+        real = True
+        if ti.static(polygons(a)):
+            real = k < ti.cast(a.b[i, Body.CORNERS], ti.i32)
+        if real:
+            lo = ti.min(lo, x)
+            hi = ti.max(hi, x)
     return lo, hi
 
 
@@ -287,22 +291,13 @@ def column(a: ti.template(), i, x, xc, zc, c, s, hw, hh, wl):
     moment about the centre's height, ``M1 = int (z - zc) dz``."""
     h = 0.0
     m1 = 0.0
-    if ti.static(not polygons(a)):
-        d = x - xc
-        # u = d c + (z - zc) s, v = -d s + (z - zc) c
-        lo, hi = _slab(-FAR, FAR, zc, d * c, hw, s)
-        lo, hi = _slab(lo, hi, zc, -d * s, hh, c)
-        if lo < hi and lo < wl:
-            top = ti.min(hi, wl)
-            h = top - lo
-            m1 = h * (0.5 * (lo + top) - zc)
-    else:
-        lo, hi = _line(a, i, c, s, x - xc, 0.0, 0.0, 1.0)  # t = z - zc
-        level = wl - zc
-        if lo < hi and lo < level:
-            top = ti.min(hi, level)
-            h = top - lo
-            m1 = h * 0.5 * (lo + top)
+    d = x - xc
+    # u = d c + (z - zc) s, v = -d s + (z - zc) c
+    lo, hi = _clip(a, i, hw, hh, -FAR, FAR, zc, d * c, -d * s, s, c)
+    if lo < hi and lo < wl:
+        top = ti.min(hi, wl)
+        h = top - lo
+        m1 = h * (0.5 * (lo + top) - zc)
     return h, m1
 
 
@@ -310,16 +305,9 @@ def column(a: ti.template(), i, x, xc, zc, c, s, hw, hh, wl):
 def waterline(a: ti.template(), i, xc, zc, c, s, hw, hh, wl):
     """Where the outline crosses the still water line: the interval [p, q] of x (q <= p: it
     does not)."""
-    p, q = 0.0, 0.0
-    if ti.static(not polygons(a)):
-        e = wl - zc
-        # u = (x - xc) c + e s, v = -(x - xc) s + e c
-        lo, hi = _slab(-FAR, FAR, xc, e * s, hw, c)
-        p, q = _slab(lo, hi, xc, e * c, hh, -s)
-    else:
-        lo, hi = _line(a, i, c, s, 0.0, wl - zc, 1.0, 0.0)  # t = x - xc
-        p, q = xc + lo, xc + hi
-    return p, q
+    e = wl - zc
+    # u = (x - xc) c + e s, v = -(x - xc) s + e c
+    return _clip(a, i, hw, hh, -FAR, FAR, xc, e * s, e * c, c, -s)
 
 
 @ti.func
@@ -347,22 +335,12 @@ def below(a: ti.template(), i, xc, zc, c, s, hw, hh, wl):
     px = ti.Vector([0.0 for _ in ti.static(range(n + 2))])
     pz = ti.Vector([0.0 for _ in ti.static(range(n + 2))])
     m = 0
-    if ti.static(not polygons(a)):
-        for k in ti.static(range(4)):
-            su = ti.static((1.0, 1.0, -1.0, -1.0)[k])
-            sv = ti.static((-1.0, 1.0, 1.0, -1.0)[k])
-            su2 = ti.static((1.0, 1.0, -1.0, -1.0)[(k + 1) % 4])
-            sv2 = ti.static((-1.0, 1.0, 1.0, -1.0)[(k + 1) % 4])
-            ax = xc + su * hw * c - sv * hh * s
-            az = zc + su * hw * s + sv * hh * c
-            bx = xc + su2 * hw * c - sv2 * hh * s
-            bz = zc + su2 * hw * s + sv2 * hh * c
+    for k in ti.static(range(n)):
+        pu, pv, qu, qv, real = _edge_uv(a, i, k, hw, hh)
+        if real:
+            ax = xc + pu * c - pv * s
+            az = zc + pu * s + pv * c
+            bx = xc + qu * c - qv * s
+            bz = zc + qu * s + qv * c
             px, pz, m = _keep(px, pz, m, ax, az, bx, bz, wl)
-    else:
-        for k in ti.static(range(n)):
-            p, q, real = _edge(a, i, k, c, s)
-            if real:
-                ax, az = xc + p[0], zc + p[1]
-                bx, bz = xc + q[0], zc + q[1]
-                px, pz, m = _keep(px, pz, m, ax, az, bx, bz, wl)
     return px, pz, m

@@ -24,8 +24,8 @@ import taichi as ti
 from ..data.schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPose, Param
 from ..effects import JOINED, JOINED_WALL
 from ..numerics import FAR, TINY
-from ..shape.discs import line_window, offset_term, polygon_disc
-from ..shape.faces import FACE_BITS, FACES, boxes_apart, face_in_j, face_spacing, grown, j_face, pair_term
+from ..shape.discs import line_window
+from ..shape.faces import FACE_BITS, box, boxes_apart, edge_line, edge_spacing, edges, face_in_j, grown, j_face, pair_term
 from ..shape.hydrostatics import halves, polygons
 from . import wall
 from .broad import cell_size, margin, reach
@@ -93,11 +93,11 @@ def unpack_pair(code):
 
 
 @ti.func
-def add_pair(fb, perp, off, d2, au, av, ri, rj, motion, rch, near, standby, gap):
+def add_pair(perp, off, du, dv, d2, au, av, ri, rj, motion, rch, near, standby, gap):
     """A disc pair within touching distance adds its term to the sums of the pairs closing
     within this step (``near``, weighted by ``motion - g``) and of all pairs (``standby``,
     by ``rch - g``), and its gap to the smallest; returns the three."""
-    g, term = pair_term(fb, perp, off, d2, au, av, ri, rj)
+    g, term = pair_term(perp, off, du, dv, d2, au, av, ri, rj)
     return add_term(g, term, motion, rch, near, standby, gap)
 
 
@@ -161,6 +161,9 @@ def narrow(a: ti.template(), i, j, rch, motion):
     xi, zi, xj, zj = b[i, Body.X], b[i, Body.Z], b[j, Body.X], b[j, Body.Z]
     hwi, hhi = halves(a, i)
     hwj, hhj = halves(a, j)
+    bui, bvi = box(a, i, hwi, hhi)
+    buj, bvj = box(a, j, hwj, hhj)
+    sizej = buj + bvj
     ri, rj = b[i, Body.RADIUS], b[j, Body.RADIUS]
     dx = xj - xi
     dz = zj - zi
@@ -178,7 +181,6 @@ def narrow(a: ti.template(), i, j, rch, motion):
     standby = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
     gap = FAR
     touch2 = touch * touch
-    iuj, ivj, stu, stv, inv_stu, inv_stv = face_spacing(hwj, hhj, rj, k)
     # i's list entry for j, if any, and whether it still holds every pair within touch:
     # any disc of i has moved relative to j's discs by at most |dt| + |dR| bound_i since
     # the list was made (|dR| <= |dc| + |ds| for the rotation), so a pair within touch now
@@ -200,22 +202,29 @@ def narrow(a: ti.template(), i, j, rch, motion):
             use = touch + moved + 64.0 * a.par[Param.EPS] * size <= pose[i, entry, ListPose.KEEP]
     if use:
         fa_prev = -1
+        fb_prev = -1
         au0, av0, dau, dav = 0.0, 0.0, 0.0, 0.0
+        pu, pv, dub, dvb, st = 0.0, 0.0, 0.0, 0.0, 0.0
         base = list_code(entry, 0, runs)
         for q in range(a.nl[i, list_count(entry)]):
             code = a.nl[i, base + q]
             fa, ia, fb, ib0 = unpack_pair(code)
             if fa != fa_prev:
                 fa_prev = fa
-                au0, av0, dau, dav = face_in_j(fa, k, hwi, hhi, ri, cu, cv, c, s)
+                u0, v0, du, dv, length, n = edge_line(a, i, fa, k, hwi, hhi, ri)
+                au0, av0, dau, dav = face_in_j(u0, v0, du, dv, length, n, cu, cv, c, s)
+            if fb != fb_prev:  # the runs of one disc of i, and of the next, mostly face one edge of j
+                fb_prev = fb
+                pu, pv, dub, dvb, lb, nb = edge_line(a, j, fb, k, hwj, hhj, rj)
+                st, _inv = edge_spacing(lb, nb, sizej)
             au = au0 + ia * dau
             av = av0 + ia * dav
-            perp, along, st, _inv = j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv)
+            perp, along = j_face(au, av, pu, pv, dub, dvb)
             for ib in range(ib0, ib0 + (code >> _LEN_SHIFT)):
                 off = along - ib * st
                 d2 = perp * perp + off * off
                 if d2 < touch2 and d2 > 0:
-                    near, standby, gap = add_pair(fb, perp, off, d2, au, av, ri, rj, motion, rch, near, standby, gap)
+                    near, standby, gap = add_pair(perp, off, dub, dvb, d2, au, av, ri, rj, motion, rch, near, standby, gap)
     else:
         # search, keeping the pairs within touch + skin in a (new or reused) list entry
         skin = 0.0
@@ -231,16 +240,17 @@ def narrow(a: ti.template(), i, j, rch, motion):
         keep2 = keep * keep
         last = -1  # the last pair kept (its code without the run length)
         grow = rch + skin
-        faces = FACES
-        if boxes_apart(cu, cv, c, s, hwi, hhi, hwj, hhj, grow):
-            faces = 0  # the rectangles (which contain the discs) cannot meet this step
-        lim_u, lim_v = grown(hwj, hhj, ri, grow)
+        faces = edges(a, i)
+        if boxes_apart(cu, cv, c, s, bui, bvi, buj, bvj, grow):
+            faces = 0  # the boxes (which contain the discs) cannot meet this step
+        faces_j = edges(a, j)
+        lim_u, lim_v = grown(buj, bvj, ri, grow)
         for fa in range(faces):
-            lo_a, hi_a = 0, k - 1
-            # i's discs on this face, in j's frame, are (au0, av0) + ia (dau, dav): keep
+            # i's discs on this edge, in j's frame, are (au0, av0) + ia (dau, dav): keep
             # those inside j's box grown by ri + rch + skin (the exact test is per disc)
-            au0, av0, dau, dav = face_in_j(fa, k, hwi, hhi, ri, cu, cv, c, s)
-            lo_a, hi_a = line_window(au0, dau, lim_u, lo_a, hi_a)
+            u0, v0, du, dv, length, n = edge_line(a, i, fa, k, hwi, hhi, ri)
+            au0, av0, dau, dav = face_in_j(u0, v0, du, dv, length, n, cu, cv, c, s)
+            lo_a, hi_a = line_window(au0, dau, lim_u, 0, n - 1)
             if lo_a <= hi_a:
                 lo_a, hi_a = line_window(av0, dav, lim_v, lo_a, hi_a)
             for ia in range(lo_a, hi_a + 1):
@@ -248,18 +258,24 @@ def narrow(a: ti.template(), i, j, rch, motion):
                 av = av0 + ia * dav
                 if ti.abs(au) > lim_u or ti.abs(av) > lim_v:
                     continue
-                # j's faces are axis-aligned in its frame (a dynamic loop: unrolled, the
-                # kernels took twice as long to compile, for ~10% of this loop's time)
-                for fb in range(FACES):
-                    perp, along, st, inv_st = j_face(fb, au, av, iuj, ivj, stu, stv, inv_stu, inv_stv)
+                # j's edges (a dynamic loop: unrolled, the kernels took twice as long to
+                # compile, for ~10% of this loop's time)
+                for fb in range(faces_j):
+                    pu, pv, dub, dvb, lb, nb = edge_line(a, j, fb, k, hwj, hhj, rj)
+                    st, inv_st = edge_spacing(lb, nb, sizej)
+                    perp, along = j_face(au, av, pu, pv, dub, dvb)
                     if ti.abs(perp) < keep:
-                        lo_b, hi_b = 0, k - 1
+                        lo_b, hi_b = 0, nb - 1
                         if inv_st > 0:
                             lo_b = ti.max(0, ti.cast(ti.ceil((along - keep) * inv_st), ti.i32))
-                            hi_b = ti.min(k - 1, ti.cast(ti.floor((along + keep) * inv_st), ti.i32))
+                            hi_b = ti.min(nb - 1, ti.cast(ti.floor((along + keep) * inv_st), ti.i32))
                         for ib in range(lo_b, hi_b + 1):
                             off = along - ib * st
                             d2 = perp * perp + off * off
+                            if d2 < keep2 and count >= 0:
+                                if ti.static(polygons(a)):
+                                    if ia >= MAX_FACE_DISCS or ib >= MAX_FACE_DISCS:
+                                        count = -1  # a long edge's index does not fit a code: search next step
                             if d2 < keep2 and count >= 0:
                                 key = pack_pair(fa, ia, fb, ib)
                                 if count > 0 and key == last + 1 and ib > 0:
@@ -273,7 +289,9 @@ def narrow(a: ti.template(), i, j, rch, motion):
                                 else:
                                     count = -1  # too many runs to keep: search next step
                             if d2 < touch2 and d2 > 0:
-                                near, standby, gap = add_pair(fb, perp, off, d2, au, av, ri, rj, motion, rch, near, standby, gap)
+                                near, standby, gap = add_pair(
+                                    perp, off, dub, dvb, d2, au, av, ri, rj, motion, rch, near, standby, gap
+                                )
         if lists:
             a.nl[i, list_partner(entry)] = j
             a.nl[i, list_count(entry)] = count
@@ -312,43 +330,6 @@ def merge(a: ti.template(), i, j, near, standby, gap, xi, zi, xj, zj, cj, sj):
 
 
 @ti.func
-def narrow_polygons(a: ti.template(), i, j, rch, motion):
-    """:func:`narrow` for polygons (a scene with one): every disc of i within reach of j's
-    bounding circle against every disc of j, in a fixed order (i's edge, i's disc, j's edge,
-    j's disc), the sums in j's frame as for rectangles. No candidate lists: each step searches."""
-    b = ti.static(a.b)
-    ci, si, cj, sj = b[i, Body.COS], b[i, Body.SIN], b[j, Body.COS], b[j, Body.SIN]
-    ri, rj = b[i, Body.RADIUS], b[j, Body.RADIUS]
-    dx = b[i, Body.X] - b[j, Body.X]
-    dz = b[i, Body.Z] - b[j, Body.Z]
-    touch = ri + rj + rch
-    touch2 = touch * touch
-    lim = b[j, Body.BOUND] + ri + rch
-    near = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
-    standby = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
-    gap = FAR
-    for ea in range(ti.cast(b[i, Body.CORNERS], ti.i32)):
-        for ia in range(ti.cast(b[i, Body.NDISC0 + ea], ti.i32)):
-            p = polygon_disc(a, i, ea, ia)
-            wx = dx + p[0] * ci - p[1] * si  # i's disc from j's centre, world
-            wz = dz + p[0] * si + p[1] * ci
-            au = wx * cj + wz * sj  # in j's frame
-            av = -wx * sj + wz * cj
-            if au * au + av * av < lim * lim:
-                for eb in range(ti.cast(b[j, Body.CORNERS], ti.i32)):
-                    for ib in range(ti.cast(b[j, Body.NDISC0 + eb], ti.i32)):
-                        q = polygon_disc(a, j, eb, ib)
-                        du_ = au - q[0]
-                        dv_ = av - q[1]
-                        d2 = du_ * du_ + dv_ * dv_
-                        if d2 < touch2 and d2 > 0:
-                            g, term = offset_term(du_, dv_, d2, au, av, ri, rj)
-                            near, standby, gap = add_term(g, term, motion, rch, near, standby, gap)
-    if gap < rch:
-        merge(a, i, j, near, standby, gap, b[i, Body.X], b[i, Body.Z], b[j, Body.X], b[j, Body.Z], cj, sj)
-
-
-@ti.func
 def detect(fx: ti.template(), a: ti.template(), i, size):
     """Contacts of body i with partners j > i (slots sorted by j), and with the wall."""
     b = ti.static(a.b)
@@ -371,10 +352,7 @@ def detect(fx: ti.template(), a: ti.template(), i, size):
                     lim = b[i, Body.BOUND] + b[j, Body.BOUND] + rch
                     if dx * dx + dz * dz < lim * lim:
                         if not held(fx, a, i, j):
-                            if ti.static(polygons(a)):
-                                narrow_polygons(a, i, j, rch, b[i, Body.MOTION] + b[j, Body.MOTION])
-                            else:
-                                narrow(a, i, j, rch, b[i, Body.MOTION] + b[j, Body.MOTION])
+                            narrow(a, i, j, rch, b[i, Body.MOTION] + b[j, Body.MOTION])
     if ti.static(fx.wall):
         if not held_wall(fx, a, i):
             wall.detect(a, i)
