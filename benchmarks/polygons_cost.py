@@ -1,4 +1,4 @@
-"""What outlines cost a step: the paper's row of 400 blocks (1 x 1.4, gap 0.1, tilts of 0.01
+"""What outlines cost a step: the paper's row of 400 blocks (1 x 1.4, gap 0.1, from x = 0.4, tilts of 0.01
 rad, the paper's effects) given by width and thickness (a scene of rectangles: outlines stored
 as two numbers), the same blocks given by their corners (``[[iceberg]] vertices``: every
 outline's corners stored), and parallelograms of the same size whose upright faces lean 20
@@ -42,7 +42,7 @@ shapes = {
 rng = np.random.default_rng(1)
 bergs = []
 for k in range(400):
-    b = {"x": 0.6 + 1.1 * k, "z": float(equilibrium_z(1.4, 0.8946, 0.0)), "theta": float(rng.uniform(-0.01, 0.01))}
+    b = {"x": 0.9 + 1.1 * k, "z": float(equilibrium_z(1.4, 0.8946, 0.0)), "theta": float(rng.uniform(-0.01, 0.01))}
     b.update(shapes[kind])
     bergs.append(b)
 sc = scene.from_dict({"scene": {"name": "row"}, "iceberg": bergs, "time": {"duration": 1.0}})
