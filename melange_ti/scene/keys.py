@@ -42,7 +42,8 @@ SCENE = (
         70.0,
         "m",
         "the iceberg width w in metres: sets the physical axes of figures and movies (time unit "
-        "sqrt(w/g), energy unit rho_w g w^3 per metre); the model itself stays non-dimensional",
+        "sqrt(w/g), energy unit rho_w g w^3 per metre) and converts a stress given in Pa (a [physics] key "
+        "in rho_w g w written NAME_pa); the model itself stays non-dimensional",
         lambda v: v > 0.0,
         "must be > 0",
     ),

@@ -17,6 +17,19 @@ from typing import Any
 
 from ..data.columns import Column, Table
 
+# A stress in the model's unit rho_w g w: such a [physics] key may also be given in Pa, as the
+# same name with PA_SUFFIX, converted with scene.width_m (pascals); both forms of one key are
+# refused together (melange_ti.scene.core)
+STRESS = "rho_w g w"
+PA_SUFFIX = "_pa"
+RHO_W_SI = 1025.0  # kg m^-3
+G_SI = 9.81  # m s^-2
+
+
+def pascals(width_m: float) -> float:
+    """The model's stress unit ``rho_w g w`` in Pa for icebergs ``width_m`` metres wide."""
+    return RHO_W_SI * G_SI * width_m
+
 
 @dataclass(frozen=True)
 class Key:

@@ -57,19 +57,12 @@ from __future__ import annotations
 import math
 
 from ...data.columns import Column, E, Table
-from ..base import Dataset, Effect, Key, Quantity
+from ..base import G_SI, RHO_W_SI, STRESS, Dataset, Effect, Key, Quantity, pascals  # noqa: F401  (G_SI, RHO_W_SI: this module's names)
 
 MAX_BONDS = 4  # bonds per iceberg (body columns BOND_1 ...): one per face of a rectangle
 POISSON = 0.3  # Poisson's ratio of ice, for the shear modulus
-RHO_W_SI = 1025.0  # kg m^-3
-G_SI = 9.81  # m s^-2
 MIN_OVERLAP = 1e-6  # w: two faces sharing less than this do not bond
 TOUCH = 1e-2  # w: faces farther apart than this at t = 0 do not touch
-
-
-def pascals(width_m: float) -> float:
-    """The model's stress unit ``rho_w g w`` in Pa for icebergs ``width_m`` metres wide."""
-    return RHO_W_SI * G_SI * width_m
 
 
 def model_stress(pa: float, width_m: float = 70.0) -> float:
@@ -151,8 +144,9 @@ EFFECT = Effect(
         Key.positive(
             "bond_modulus",
             round(model_stress(1e9), 4),
-            "rho_w g w",
-            "Young's modulus E of the bonds (1 GPa at w = 70 m; Pa = value * 1025 * 9.81 * width_m; used with the bonds effect)",
+            STRESS,
+            "Young's modulus E of the bonds (1 GPa at w = 70 m; Pa = value * 1025 * 9.81 * width_m, or give "
+            "bond_modulus_pa in Pa; used with the bonds effect)",
         ),
         Key.nonnegative(
             "bond_damping",
@@ -163,14 +157,16 @@ EFFECT = Effect(
         Key.positive(
             "tensile_strength",
             round(model_stress(2.5e5), 4),
-            "rho_w g w",
-            "a bond breaks when F_n / t + 6 |M| / t^2 exceeds it (0.25 MPa at w = 70 m; used with the bonds effect)",
+            STRESS,
+            "a bond breaks when F_n / t + 6 |M| / t^2 exceeds it (0.25 MPa at w = 70 m, or give tensile_strength_pa "
+            "in Pa; used with the bonds effect)",
         ),
         Key.positive(
             "shear_strength",
             round(model_stress(2.5e5), 4),
-            "rho_w g w",
-            "a bond breaks when its shear force over t exceeds it (0.25 MPa at w = 70 m; used with the bonds effect)",
+            STRESS,
+            "a bond breaks when its shear force over t exceeds it (0.25 MPa at w = 70 m, or give shear_strength_pa "
+            "in Pa; used with the bonds effect)",
         ),
         Key.nonnegative(
             "strength_modulus",
