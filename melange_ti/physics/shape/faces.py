@@ -49,6 +49,17 @@ def edges(a: ti.template(), i):
 
 
 @ti.func
+def edge_discs(a: ti.template(), i, k):
+    """How many discs each of body ``i``'s edges holds: ``k`` on a rectangle's faces, a
+    polygon's ``NDISC0`` (the one disc rule gives every edge of an outline the same count,
+    :func:`melange_ti.geometry.polygon_discs`)."""
+    n = k
+    if ti.static(polygons(a)):
+        n = ti.cast(a.b[i, Body.NDISC0], ti.i32)
+    return n
+
+
+@ti.func
 def box(a: ti.template(), i, hw, hh):
     """Half sizes of a box about body ``i``'s centre, in its frame, that holds its outline:
     a rectangle's own (``hw``, ``hh``: :func:`..hydrostatics.halves`), a polygon's bounding

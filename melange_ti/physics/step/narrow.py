@@ -25,8 +25,20 @@ from ..data.schema import Body, BodyInt, Cell, Config, Contact, Counter, ListPos
 from ..effects import JOINED, JOINED_WALL
 from ..numerics import FAR, TINY
 from ..shape.discs import line_window
-from ..shape.faces import FACE_BITS, box, boxes_apart, edge_line, edge_spacing, edges, face_in_j, grown, j_face, pair_term
-from ..shape.hydrostatics import halves, polygons
+from ..shape.faces import (
+    FACE_BITS,
+    box,
+    boxes_apart,
+    edge_discs,
+    edge_line,
+    edge_spacing,
+    edges,
+    face_in_j,
+    grown,
+    j_face,
+    pair_term,
+)
+from ..shape.hydrostatics import halves
 from . import wall
 from .broad import cell_size, margin, reach
 from .terms import term as term_of
@@ -234,8 +246,8 @@ def narrow(a: ti.template(), i, j, rch, motion):
             if entry < 0:
                 entry = a.bi[i, BodyInt.NEXT_ENTRY]
                 a.bi[i, BodyInt.NEXT_ENTRY] = (entry + 1) % ENTRIES
-            if k <= MAX_FACE_DISCS:  # else the indices do not fit the list's codes: always search
-                count = 0
+            if ti.max(edge_discs(a, i, k), edge_discs(a, j, k)) <= MAX_FACE_DISCS:
+                count = 0  # else the indices do not fit the list's codes: always search
         keep = touch + skin
         keep2 = keep * keep
         last = -1  # the last pair kept (its code without the run length)
@@ -272,10 +284,6 @@ def narrow(a: ti.template(), i, j, rch, motion):
                         for ib in range(lo_b, hi_b + 1):
                             off = along - ib * st
                             d2 = perp * perp + off * off
-                            if d2 < keep2 and count >= 0:
-                                if ti.static(polygons(a)):
-                                    if ia >= MAX_FACE_DISCS or ib >= MAX_FACE_DISCS:
-                                        count = -1  # a long edge's index does not fit a code: search next step
                             if d2 < keep2 and count >= 0:
                                 key = pack_pair(fa, ia, fb, ib)
                                 if count > 0 and key == last + 1 and ib > 0:
