@@ -8,8 +8,9 @@ elastic foundation (buoyancy, k = rho_w g = 1), the three checks of issue #31.
 
 The slab: ``n`` upright blocks of width ``b`` and thickness ``t`` (``[[iceberg]]`` tables,
 faces touching, each neighbour pair a ``[[bond]]``), floating at rest (draft ``r t``). Its
-bonds make a beam of ``E I``, ``I = t^3 / 12``; buoyancy is the Winkler foundation, so
-``beta = (k / 4 E I)^(1/4)``. The point load: the middle block is taller upward by
+bonds make a beam (a plate in plane strain) of ``D = E' I``, ``E' = E / (1 - nu^2)``,
+``I = t^3 / 12``; buoyancy is the Winkler foundation, so ``beta = (k / 4 D)^(1/4)``, and
+``1 / beta`` is sqrt(2) times the flexural length ``(D / k)^(1/4)``. The point load: the middle block is taller upward by
 ``delta`` (its bottom at its neighbours' depth, so the bonded faces are the same), which
 adds the weight ``P = r delta b`` and no buoyancy.
 
@@ -36,7 +37,14 @@ import numpy as np
 R = 0.8946  # density ratio (the default)
 E0 = 1420.7219  # the default bond_modulus (1 GPa at w = 70 m)
 SIGMA_T = 0.3552  # the default tensile_strength
-NU = 0.3
+NU = 0.3  # the default poisson_ratio
+
+
+def plane_strain(E: float) -> float:
+    """``E' = E / (1 - nu^2)``: the modulus of the bonds' normal and bending stiffness."""
+    return E / (1.0 - NU * NU)
+
+
 UNBREAKABLE = 1e9
 
 
@@ -116,7 +124,7 @@ def slab(n, b, t=1.0, delta=0.0, **kw) -> str:
 
 
 def beta_of(E: float, t: float, k: float = 1.0) -> float:
-    return (k / (4.0 * E * t**3 / 12.0)) ** 0.25
+    return (k / (4.0 * plane_strain(E) * t**3 / 12.0)) ** 0.25
 
 
 def hetenyi(x, P: float, beta: float, k: float = 1.0):
@@ -130,7 +138,7 @@ def timoshenko_w0(P: float, E: float, t: float, k: float = 1.0) -> float:
     the same foundation: (1/pi) int_0^inf P dxi / (k + EI xi^4 / (1 + EI xi^2 / G t))."""
     from scipy.integrate import quad
 
-    ei, gt = E * t**3 / 12.0, E / (2 * (1 + NU)) * t
+    ei, gt = plane_strain(E) * t**3 / 12.0, E / (2 * (1 + NU)) * t
     f = lambda xi: 1.0 / (k + ei * xi**4 / (1.0 + ei * xi**2 / gt))  # noqa: E731
     return P / math.pi * quad(f, 0, np.inf, limit=400)[0]
 
@@ -157,15 +165,15 @@ def free_free(x, L: float, kl: float):
 
 
 def omega_fg(E: float, t: float, k_wave: float) -> float:
-    """Flexural-gravity frequency: omega^2 = (E I k^4 + rho_w g) / (rho_i t)."""
-    return math.sqrt((E * t**3 / 12.0 * k_wave**4 + 1.0) / (R * t))
+    """Flexural-gravity frequency: omega^2 = (E' I k^4 + rho_w g) / (rho_i t)."""
+    return math.sqrt((plane_strain(E) * t**3 / 12.0 * k_wave**4 + 1.0) / (R * t))
 
 
 def omega_timoshenko(E: float, t: float, k_wave: float) -> float:
     """The same wave on a Timoshenko beam (shear stiffness G t, the bonds'; rotary inertia
     rho_i t^3 / 12): the lower root of (a - rho_i t w^2)(d - rho_i I w^2) = (G t k)^2,
     a = G t k^2 + rho_w g, d = E I k^2 + G t."""
-    gt, ei = E / (2 * (1 + NU)) * t, E * t**3 / 12
+    gt, ei = E / (2 * (1 + NU)) * t, plane_strain(E) * t**3 / 12
     ra, ri = R * t, R * t**3 / 12
     a, d = gt * k_wave**2 + 1.0, ei * k_wave**2 + gt
     qa, qb, qc = ra * ri, -(a * ri + d * ra), a * d - (gt * k_wave) ** 2
@@ -188,7 +196,7 @@ def discrete(n: int, b: float, t: float = 1.0, delta: float = 0.0, E: float = E0
     inertia = mass * (b**2 + th**2) / 12
     K = np.zeros((3 * n, 3 * n))
     G = E / (2 * (1 + NU))
-    kn, ks, kb = E * t / b, G * t / b, E * t**3 / (12 * b)
+    kn, ks, kb = plane_strain(E) * t / b, G * t / b, plane_strain(E) * t**3 / (12 * b)
     bonds = []
     zb = -R * t / 2  # the shared faces' middle: the neighbours' centre height
     for i in range(n - 1):

@@ -11,8 +11,8 @@ flat, each block moving as ``v_z = a omega_plate cos(k x)`` (and the matching ro
 one of the basin's cosine modes, ``k = m pi / L``, so the water's own modes are the plate's.
 The mode's amplitude is the blocks' heave projected on ``cos(k x)``, its frequencies the peaks
 of its spectrum over the run (interpolated). Three relations beside it, per unit length,
-``rho_w = g = 1``, ``D = E t^3 / 12`` (the bonds' beam), ``m = rho_i t``, ``S = D k^4 + 1``,
-``G = k tanh(k H)``:
+``rho_w = g = 1``, ``D = E' t^3 / 12`` (the bonds' beam in plane strain, ``E' = E / (1 - nu^2)``),
+``m = rho_i t``, ``S = D k^4 + 1``, ``G = k tanh(k H)``:
 
 - the plate with the water's inertia: ``omega^2 = S G / (1 + m G)``;
 - the dry slab (no water inertia): ``omega^2 = S / m``;
@@ -37,25 +37,31 @@ import numpy as np
 
 R = 0.8946  # density ratio (the default)
 E0 = 1420.7219  # the default bond_modulus (1 GPa at w = 70 m)
+NU = 0.3  # the default poisson_ratio
 DEPTH = 6.0
 UNBREAKABLE = 1e9
 
 
+def rigidity(E: float, t: float) -> float:
+    """``D = E t^3 / (12 (1 - nu^2))``: the bonds' bending stiffness per unit width (plane strain)."""
+    return E * t**3 / (12.0 * (1.0 - NU * NU))
+
+
 def plate(k: float, t: float = 1.0, E: float = E0, H: float = DEPTH) -> float:
     """omega of the floating plate with the water's inertia."""
-    s, g, m = E * t**3 / 12 * k**4 + 1.0, k * math.tanh(k * H), R * t
+    s, g, m = rigidity(E, t) * k**4 + 1.0, k * math.tanh(k * H), R * t
     return math.sqrt(s * g / (1.0 + m * g))
 
 
 def dry(k: float, t: float = 1.0, E: float = E0) -> float:
     """omega of the slab on a hydrostatic foundation without the water's inertia."""
-    return math.sqrt((E * t**3 / 12 * k**4 + 1.0) / (R * t))
+    return math.sqrt((rigidity(E, t) * k**4 + 1.0) / (R * t))
 
 
 def coupled_today(k: float, depth: float, t: float = 1.0, E: float = E0, H: float = DEPTH) -> tuple[float, float]:
     """The two omegas of today's coupling, linearised (module docstring): the roots of
     ``m x^2 - (S + m G + f^2) x + S G = 0`` in ``x = omega^2``."""
-    s, g, m = E * t**3 / 12 * k**4 + 1.0, k * math.tanh(k * H), R * t
+    s, g, m = rigidity(E, t) * k**4 + 1.0, k * math.tanh(k * H), R * t
     f = math.cosh(k * (H - depth)) / math.cosh(k * H)
     # m x + f^2 x / (G - x) = S  <=>  m x (G - x) + f^2 x = S (G - x)  <=>  m x^2 - (m G + f^2 + S) x + S G = 0
     b = m * g + f * f + s
@@ -148,7 +154,7 @@ def main() -> None:
         k = a.half_waves * math.pi / (n * a.width)  # the basin's cosine mode exactly
         low, high = coupled_today(k, 1.0)
         low0, high0 = coupled_today(k, 0.0)
-        share = (E0 / 12 * k**4) / (E0 / 12 * k**4 + 1.0)
+        share = (rigidity(E0, 1.0) * k**4) / (rigidity(E0, 1.0) * k**4 + 1.0)
         for waves, depth in ((False, 1.0), (True, 1.0), (True, 0.0)):
             got = run(n, a.width, k, waves, depth, a.duration, a.dt, work)
             traces.append((k, waves, depth, got))

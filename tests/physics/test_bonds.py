@@ -3,7 +3,7 @@ strength, the budget with fracture, the pair's contact held by the bond, the for
 the scene's refusals, checkpoints, ``[start]`` and the fragments.
 
 Analytic references: two free blocks bonded face to face are a spring of stiffness
-``k_n = E t / L`` between masses ``m`` (reduced ``m / 2``): their separation oscillates at
+``k_n = E' t / L`` (plane strain, ``E' = E / (1 - nu^2)``) between masses ``m`` (reduced ``m / 2``): their separation oscillates at
 ``omega = sqrt(2 k_n / m)``, or, for the kick-drift step, ``(2 / dt) asin(omega dt / 2)``.
 Every bond force is equal and opposite and derives from a potential invariant under rigid
 motions, so momentum and angular momentum are constant to round-off whatever the bond does.
@@ -12,6 +12,8 @@ motions, so momentum and angular momentum are constant to round-off whatever the
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -29,6 +31,8 @@ from .scenes import KERNEL_FORMS
 R = DENSITY_RATIO
 H = 1.4
 E = 1420.7
+NU = 0.3  # the default poisson_ratio (SPEC)
+E_N = E / (1 - NU**2)  # plane strain: the modulus of the normal and bending stiffness
 FLOAT = ["gravity", "buoyancy", "drag", "collisions", "wall", "bonds"]
 
 
@@ -71,13 +75,13 @@ def budget(d) -> np.ndarray:
 
 def test_a_bonded_pair_rings_at_the_springs_frequency(tmp_path):
     """Separation of a pair pulled apart: the kick-drift step's frequency of the spring
-    ``k_n = E t / L`` between the two masses, within 0.2%, mid-run over several periods; the
+    ``k_n = E' t / L`` (plane strain, ``E' = E / (1 - nu^2)``) between the two masses, within 0.2%, mid-run over several periods; the
     budget (the bond's energy as the step keeps it) constant to 1e-9 of the energy."""
     dt = 0.001
     d = run_text(tmp_path, pair_text(dt=dt, duration=0.6))
     s = d["snapshots"]
     m = R * H
-    omega = math.sqrt(2 * E * H / m)
+    omega = math.sqrt(2 * E_N * H / m)
     want = 2 * math.pi / ((2 / dt) * math.asin(omega * dt / 2))
     got = zero_crossing_period(s["time"], s["x"][:, 1] - s["x"][:, 0] - 1.0)
     assert abs(got / want - 1) < 2e-3, (got, want)
@@ -114,7 +118,7 @@ def test_a_bond_breaks_at_its_tensile_strength_and_books_what_it_held(tmp_path):
     budget closes to 1e-9 of the energy after the break."""
     dt, vx, st = 0.0005, 0.01, 0.2
     d = run_text(tmp_path, pair_text(vx=vx, strength=st, dt=dt, duration=0.2))
-    kn, m = E * H, R * H
+    kn, m = E_N * H, R * H
     omega = math.sqrt(2 * kn / m)
     bonds = d["bonds"]
     sig = float(bonds["break_stress"][0])
@@ -353,7 +357,7 @@ def test_the_time_step_limit_bounds_the_linearised_step(zeta):
     sc = loads(text)
     table = Model(sc).effect("bonds").table0
     om, gam = omega_max(table, sc.icebergs(), R), gamma_max(table, sc.icebergs(), R)
-    assert om >= 2 * math.sqrt(E * H / (R * H)) * (1 - 1e-12)
+    assert om >= 2 * math.sqrt(E_N * H / (R * H)) * (1 - 1e-12)
     limit = dt_limit(om, gam)
     # the rigid motions of the free row are eigenvalues 1 in Jordan blocks: 1 + O(sqrt(eps))
     assert _linear_step(table, sc.icebergs(), limit) <= 1.0 + 1e-6
@@ -398,3 +402,27 @@ def test_the_bonded_shelf_starts_at_rest_and_stays_there():
     s = m.sample()
     assert max(np.abs(s[k]).max() for k in ("vx", "vz", "omega")) < 1e-12
     assert s["bonds_intact"] == 14 and s["fragments"] == 1
+
+
+@pytest.mark.parametrize("nu", [0.0, 0.3, 0.45])
+def test_the_stiffness_is_plane_strain_with_the_scenes_poisson_ratio(nu):
+    """``k_n = E t / ((1 - nu^2) L)``, ``k_b = E t^3 / (12 (1 - nu^2) L)`` and
+    ``k_s = E t / (2 (1 + nu) L)`` for the pair (``t = 1.4``, ``L = 1``), from
+    ``physics.poisson_ratio``; ``nu = 0`` is the beam of E alone."""
+    sc = loads(pair_text(extra=f"poisson_ratio = {nu}\nbond_modulus = {E}\n"))
+    row = Model(sc).effect("bonds").table0[0]
+    B = Bond
+    e_n = E / (1 - nu**2)
+    want = (e_n * H, E / (2 * (1 + nu)) * H, e_n * H**3 / 12)
+    np.testing.assert_allclose([row[B.KN], row[B.KS], row[B.KB]], want, rtol=1e-12)
+
+
+@pytest.mark.parametrize("nu", ["-0.1", "0.5", "0.7"])
+def test_a_poisson_ratio_outside_its_range_is_refused(tmp_path, nu):
+    """One line naming the key and what it accepts, exit status 2."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(pair_text(extra=f"poisson_ratio = {nu}\n"))
+    r = subprocess.run([sys.executable, "-m", "melange_ti", "check", str(scene)], capture_output=True, text=True)
+    assert r.returncode == 2, r
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "physics.poisson_ratio" in lines[0] and "[0, 0.5)" in lines[0], r.stderr

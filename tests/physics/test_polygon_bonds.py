@@ -63,8 +63,8 @@ def modes():
     m = R * W * H
     inertia = m * (W**2 + H**2 * (1 + math.tan(ALPHA) ** 2)) / 12.0  # sheared: u = u' + v tan(alpha)
     length, span = H / math.cos(ALPHA), W * math.cos(ALPHA)  # the face; the centres along its normal
-    g = E / (2 * (1 + POISSON))
-    k = np.diag([E * length / span, g * length / span, E * length**3 / (12 * span)])
+    g, e_n = E / (2 * (1 + POISSON)), E / (1 - POISSON**2)  # shear modulus; plane strain
+    k = np.diag([e_n * length / span, g * length / span, e_n * length**3 / (12 * span)])
     n = np.array([math.cos(ALPHA), -math.sin(ALPHA)])  # A's right face, outwards
     s = np.array([-n[1], n[0]])
     ra, rb = np.array([0.5 * W, 0.0]), np.array([-0.5 * W, 0.0])  # the face's middle from each centre

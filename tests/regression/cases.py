@@ -10,7 +10,8 @@ change of the default physics regenerates them, with the reason in the commit me
 Each case is a scene (a dict of TOML tables) plus the kernel form to run it in. They cover
 the paper scene in f64 and f32 with 12, 28 and 60 discs, a subset of the effects, the hard
 cases (a row driven into the wall, a fast projectile into a packed row) and the parallel
-form (forced at small N; above the serial limit in the slow case). Runs go through
+form (forced at small N; above the serial limit in the slow case), and a bonded shelf that
+breaks (recorded with the plane-strain bonds, issue 50). Runs go through
 :class:`melange_ti.simulation.Simulation`, so the whole path to the HDF5 file is covered.
 """
 
@@ -61,6 +62,15 @@ def _row(speed_all=0.0, projectile=None, n=20, gap=0.1, duration=10.0):
     }
 
 
+def _bonded(count=30, strength=0.01, duration=40.0):
+    """An intact shelf bonded to the wall, its free front block tilted: weak enough that the
+    front's capsize breaks bonds within the run (docs/bonds.md)."""
+    doc = _paper(count=count, tilt=0.01, gap=0.1, duration=duration, effects=[*FULL, "bonds"], seed=1)
+    doc["physics"] = {"tensile_strength": strength, "shear_strength": strength, "strength_modulus": 5.0}
+    doc["shelf"] = {**doc["shelf"], "bonded": True, "bonded_wall": True, "front": 1}
+    return doc
+
+
 # name: (scene document, kernel form, slow?)
 CASES: dict[str, tuple[dict, str, bool]] = {
     "paper_f64_d28": (_paper(), "auto", False),
@@ -71,6 +81,7 @@ CASES: dict[str, tuple[dict, str, bool]] = {
     "no_wall_no_drag": (_paper(effects=["gravity", "buoyancy", "collisions"], duration=20.0), "auto", False),
     "row_into_wall": (_row(speed_all=-5.0, duration=5.0), "auto", False),
     "projectile": (_row(projectile=100.0, gap=0.01, duration=2.0), "auto", False),
+    "bonded_shelf": (_bonded(), "auto", False),
     "paper_f64_long": (_paper(count=400, tilt=0.01, gap=0.1, duration=600.0, seed=1), "auto", True),
     "parallel_large_n": (_paper(count=50_500, tilt=0.05, gap=0.1, duration=0.5), "auto", True),
 }

@@ -3,13 +3,16 @@
 Two icebergs that share a face at t = 0 (a bonded ``[shelf]``, or a ``[[bond]]`` table) are
 joined there by a **parallel bond** (Potyondy & Cundall 2004, in 2-D): a beam of the face's
 length ``t`` and unit depth, between the two centres, with normal, shear and bending
-stiffness from the Young's modulus ``E`` (``physics.bond_modulus``)::
+stiffness from the Young's modulus ``E`` (``physics.bond_modulus``) and Poisson's ratio ``nu``
+(``physics.poisson_ratio``) in plane strain (the shelf is long across the section)::
 
-    k_n = E t / L     k_s = G t / L  (G = E / (2 (1 + nu)), nu = 0.3)     k_b = E t^3 / (12 L)
+    k_n = E' t / L     k_s = G t / L     k_b = E' t^3 / (12 L)
+    E' = E / (1 - nu^2)     G = E / (2 (1 + nu))
 
 ``L`` the distance between the centres along the bond's normal (for a bond to the wall, the
 centre's distance from the face: a clamped end). A chain of blocks of length ``L`` so bonded
-bends as an Euler-Bernoulli beam of stiffness ``E I``, ``I = t^3 / 12``.
+bends as an Euler-Bernoulli beam (a plate in plane strain) of stiffness
+``D = E' I = E t^3 / (12 (1 - nu^2))``.
 
 **Kinematics.** The bond keeps, from t = 0, its point in each body's frame (``UA, VA``,
 ``UB, VB``), its normal in A's frame and the bodies' relative tilt. At any later time
@@ -60,7 +63,7 @@ from ...data.columns import Column, E, Table
 from ..base import G_SI, RHO_W_SI, STRESS, Dataset, Effect, Key, Quantity, pascals  # noqa: F401  (G_SI, RHO_W_SI: this module's names)
 
 MAX_BONDS = 4  # bonds per iceberg (body columns BOND_1 ...): one per face of a rectangle
-POISSON = 0.3  # Poisson's ratio of ice, for the shear modulus
+POISSON = 0.3  # Poisson's ratio of ice: the default of physics.poisson_ratio
 MIN_OVERLAP = 1e-6  # w: two faces sharing less than this do not bond
 TOUCH = 1e-2  # w: faces farther apart than this at t = 0 do not touch
 
@@ -93,9 +96,9 @@ TABLE = Table(
         Column("DTH", "constant", "rad", "tilt of B minus tilt of A at rest (the wall: minus A's tilt)"),
         Column("LEN", "constant", "w", "t, length of the shared face"),
         Column("SPAN", "constant", "w", "L, distance between the centres along the normal (the wall: centre to face)"),
-        Column("KN", "constant", "rho_w g w", "normal stiffness E t / L"),
+        Column("KN", "constant", "rho_w g w", "normal stiffness E' t / L, E' = E / (1 - nu^2)"),
         Column("KS", "constant", "rho_w g w", "shear stiffness G t / L"),
-        Column("KB", "constant", "rho_w g w^3", "bending stiffness E t^3 / (12 L)"),
+        Column("KB", "constant", "rho_w g w^3", "bending stiffness E' t^3 / (12 L)"),
         Column("CN", "constant", "rho_w w sqrt(g w)", "normal dashpot 2 zeta sqrt(k_n m)"),
         Column("CS", "constant", "rho_w w sqrt(g w)", "shear dashpot 2 zeta sqrt(k_s m)"),
         Column("CB", "constant", "rho_w w^3 sqrt(g w)", "bending dashpot 2 zeta sqrt(k_b I)"),
@@ -147,6 +150,15 @@ EFFECT = Effect(
             STRESS,
             "Young's modulus E of the bonds (1 GPa at w = 70 m; Pa = value * 1025 * 9.81 * width_m, or give "
             "bond_modulus_pa in Pa; used with the bonds effect)",
+        ),
+        Key(
+            "poisson_ratio",
+            POISSON,
+            "1",
+            "Poisson's ratio nu of the bonds' ice: plane strain, E' = E / (1 - nu^2) in the normal and bending "
+            "stiffness, G = E / (2 (1 + nu)) in the shear (ice 0.29-0.33; used with the bonds effect)",
+            lambda v: 0.0 <= v < 0.5,
+            "must be in [0, 0.5)",
         ),
         Key.nonnegative(
             "bond_damping",

@@ -12,7 +12,7 @@ import numpy as np
 from ....errors import error
 from ....geometry import faces, mass_properties
 from ..base import State
-from . import GEOMETRY, MAX_BONDS, MIN_OVERLAP, POISSON, REST, TABLE, TOUCH, Bond, weibull_scale
+from . import GEOMETRY, MAX_BONDS, MIN_OVERLAP, REST, TABLE, TOUCH, Bond, weibull_scale
 
 # ---------------------------------------------------------------- geometry at t = 0
 
@@ -155,10 +155,11 @@ def material(scene, bergs, rows: np.ndarray) -> np.ndarray:
     mass, inertia, _ = mass_properties(bergs, p.density_ratio)
     m_eff = np.where(wall, mass[i], mass[i] * mass[jj] / (mass[i] + mass[jj]))
     i_eff = np.where(wall, inertia[i], inertia[i] * inertia[jj] / (inertia[i] + inertia[jj]))
-    e = p.bond_modulus
-    g = e / (2.0 * (1.0 + POISSON))
+    e, nu = p.bond_modulus, p.poisson_ratio
+    e_strain = e / (1.0 - nu * nu)  # plane strain: the shelf is long across the section
+    g = e / (2.0 * (1.0 + nu))
     length, span = rows[on, Bond.LEN], rows[on, Bond.SPAN]
-    kn, ks, kb = e * length / span, g * length / span, e * length**3 / (12.0 * span)
+    kn, ks, kb = e_strain * length / span, g * length / span, e_strain * length**3 / (12.0 * span)
     strength = np.ones(int(on.sum()))
     if p.strength_modulus > 0 and strength.size:
         rng = np.random.default_rng((scene.time.seed, 31))  # its own stream: the tilts keep theirs
