@@ -66,9 +66,12 @@ def slab_text(
     snapshot: float | None = None,
     vz=None,
     omega=None,
+    layers: int = 1,
 ) -> str:
     """The scene text of a bonded slab of ``n`` blocks centred on x = 0 (the middle block,
-    ``n // 2``, taller upward by ``delta``); ``vz``, ``omega``: initial velocities per block."""
+    ``n // 2``, taller upward by ``delta``); ``vz``, ``omega``: initial velocities per block;
+    ``layers``: each block as that many cells through its thickness (``cells = [1, layers]``,
+    bonded to each other and, across each joint, layer to layer)."""
     mid = n // 2
     effects = '"gravity", "buoyancy", "bonds"' + (', "drag"' if drag > 0 else "")
     out = [
@@ -84,6 +87,8 @@ def slab_text(
         extra = ""
         if vz is not None:
             extra = f"vz = {float(vz[i])!r}\nomega = {float(omega[i])!r}\n"
+        if layers > 1:
+            extra += f"cells = [1, {layers}]\n"
         out.append(f"[[iceberg]]\nx = {(i - mid) * b!r}\nz = {-R * t + th / 2!r}\nwidth = {b!r}\nthickness = {th!r}\n{extra}")
     out += [f"[[bond]]\na = {i}\nb = {i + 1}\n" for i in range(n - 1)]
     return "\n".join(out)
@@ -354,20 +359,33 @@ def crossings(tt, a):
     return tt[i] - a[i] * (tt[i + 1] - tt[i]) / (a[i + 1] - a[i])
 
 
-def mode_run(b, t, L, kl, periods=10.0, amplitude=0.01, snapshot=0.05, work=None):
+def mode_run(b, t, L, kl, periods=10.0, amplitude=0.01, snapshot=0.05, work=None, layers=1):
     """A free slab of length L (no drag, no dashpot, no added mass) set moving in the
     free-free mode ``kl`` (initial velocity ``amplitude * omega * phi``, rest shape flat,
     so the bonds start at rest); its mode amplitude (the mass-weighted projection of the
-    heave on phi) and the frequency from its upward zero crossings in each half of the run."""
+    heave on phi) and the frequency from its upward zero crossings in each half of the run.
+    ``layers``: each block as that many bonded cells through its thickness (a block's heave:
+    the mean of its cells')."""
     n = int(round(L / b))
     x = (np.arange(n) + 0.5) * b
     phi, dphi = free_free(x, n * b, kl)
     om_th = omega_fg(E0, t, kl / (n * b))
     duration = periods * 2 * math.pi / om_th
-    text = slab(n, b, t, 0.0, duration=duration, snapshot=snapshot, vz=amplitude * om_th * phi, omega=amplitude * om_th * dphi)
-    out = run_text(text, Path(work or tempfile.mkdtemp()) / f"mode_{kl:.3f}.h5")
+    text = slab(
+        n,
+        b,
+        t,
+        0.0,
+        duration=duration,
+        snapshot=snapshot,
+        vz=amplitude * om_th * phi,
+        omega=amplitude * om_th * dphi,
+        layers=layers,
+    )
+    out = run_text(text, Path(work or tempfile.mkdtemp()) / f"mode_{kl:.3f}_{layers}.h5")
     tt = out["snapshots"]["time"]
-    w = out["snapshots"]["z"] - (-R * t + t / 2)
+    z = out["snapshots"]["z"]
+    w = z.reshape(z.shape[0], n, layers).mean(-1) - (-R * t + t / 2)
     a = w @ phi / (phi @ phi)
     c = crossings(tt, a)
     half = len(c) // 2

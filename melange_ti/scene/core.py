@@ -25,14 +25,29 @@ from ..physics.effects import PAPER_EFFECTS, Effects, Key, hosts
 from ..physics.effects.base import PA_SUFFIX, STRESS, pascals
 from . import keys as K
 from .errors import SceneError, error, fmt, one_line, unit_words, with_units
-from .initial import FLOAT, Icebergs, check_geometry, check_time_step, floated, from_run, generate_shelf, with_outlines
+from .initial import (
+    FLOAT,
+    Icebergs,
+    check_geometry,
+    check_time_step,
+    floated,
+    from_run,
+    generate_shelf,
+    partitioned,
+    with_outlines,
+)
 from .toml import dumps_toml, parse_value
+
+
+def _default(value: Any) -> Any:
+    """A section field's default (a list key's: a fresh copy each time)."""
+    return field(default_factory=lambda: list(value)) if isinstance(value, list) else field(default=value)
 
 
 def _section_class(name: str, keys: tuple[Key, ...], namespace: dict | None = None) -> type:
     cls = dataclasses.make_dataclass(
         name,
-        [(k.name, type(k.default), field(default=k.default)) for k in keys],
+        [(k.name, type(k.default), _default(k.default)) for k in keys],
         frozen=True,
         namespace={"__doc__": f"The [{name.lower()}] table (see melange_ti.scene.keys).", **(namespace or {})},
     )
@@ -52,7 +67,8 @@ Output = _section_class("Output", K.OUTPUT)
 Shelf = _section_class("Shelf", K.SHELF)
 Start = _section_class("Start", K.START)
 CLASSES: dict[str, type] = {"physics": Physics, "contacts": Contacts, "time": Time, "output": Output, "shelf": Shelf}
-ICEBERG_DEFAULTS = {k.name: k.default for k in K.ICEBERG if k.name != "vertices"}  # numbers, per iceberg
+ICEBERG_DEFAULTS = {k.name: k.default for k in K.ICEBERG if not isinstance(k.default, list)}  # numbers, per iceberg
+ONE_CELL = [1, 1]
 # the effects a polygon outline (``[[iceberg]] vertices``) runs with so far; every other
 # effect takes rectangles only (issue 33)
 INTERVALS = ("output.snapshot_interval", "output.diagnostic_interval", "output.checkpoint_interval")
@@ -79,7 +95,8 @@ class Scene:
     def icebergs(self) -> Icebergs:
         """The initial state: from ``[shelf]``, ``[[iceberg]]`` or ``[start]``."""
         if self.shelf is not None:
-            return generate_shelf(self.shelf, self.physics, self.time.seed)
+            bergs = generate_shelf(self.shelf, self.physics, self.time.seed)
+            return partitioned(bergs, [tuple(self.shelf.cells)] * bergs.count)
         if self.start is not None:
             return from_run(self.start)
         cols = {k: np.array([float(b.get(k, d)) for b in self.iceberg_table]) for k, d in ICEBERG_DEFAULTS.items() if k != "z"}
@@ -88,7 +105,7 @@ class Scene:
         bergs = with_outlines([b.get("vertices") for b in self.iceberg_table], cols)
         if floats.any():  # each at its floating draft (given or left out as "float")
             bergs = floated(bergs, floats, self.physics.density_ratio, self.physics.water_level)
-        return bergs
+        return partitioned(bergs, [tuple(b.get("cells", ONE_CELL)) for b in self.iceberg_table])
 
     def start_group(self, name: str) -> tuple[dict, Any] | None:
         """The group ``name`` an effect wrote to the run ``[start]`` begins from, as
@@ -280,6 +297,14 @@ def _iceberg_table(doc: dict) -> tuple[dict, ...] | None:
             if bad is not None:
                 raise error(f"iceberg[{k}].vertices", values["vertices"], bad)
             values["vertices"] = [[float(x), float(z)] for x, z in values["vertices"]]
+        cells = values.get("cells", ONE_CELL)
+        if cells != ONE_CELL and len(values.get("vertices", [[0, 0]] * 4)) != 4:
+            raise error(
+                f"iceberg[{k}].cells",
+                cells,
+                "divides a rectangle or an outline of 4 corners; this outline has "
+                f"{len(values['vertices'])}: leave cells out or give 4 vertices",
+            )
         out.append(values)
     return tuple(out)
 
@@ -400,6 +425,8 @@ def _set_path(doc: dict, key: str, value: Any) -> None:
     known = next((k for k in K.SECTIONS[section] if k.name == name), None)
     if known is not None and isinstance(known.default, list):
         value = _names(key, value)
+        if known.default and isinstance(known.default[0], int):  # numbers: --set shelf.cells=4,2
+            value = [parse_value(v) if isinstance(v, str) else v for v in value]
     table[name] = value
 
 
@@ -452,6 +479,7 @@ def from_dict(
         start=start,
         tables=_effect_tables(doc, table is not None),
     )
+    _check_cells(scene)
     # the time step's stability first: a dt far too large is not blamed on an interval
     icebergs = check_time_step(scene) if geometry else None
     _whole_steps("time.duration", time.duration, time.dt)
@@ -468,6 +496,16 @@ def from_dict(
             if bad is not None:
                 raise error(*bad)
     return scene
+
+
+def _check_cells(scene: Scene) -> None:
+    """Cells (``cells = [nx, nz]`` other than one) need an effect that joins them (Effect.joins)."""
+    given = [("shelf.cells", scene.shelf.cells)] if scene.shelf is not None else []
+    given += [(f"iceberg[{k}].cells", b["cells"]) for k, b in enumerate(scene.iceberg_table or ()) if "cells" in b]
+    given = [(key, v) for key, v in given if list(v) != ONE_CELL]
+    if given and not any(e.joins for e in scene.effects.named):
+        joiners = " or ".join(e.name for e in EFFECT_DECLS.values() if e.joins)
+        raise error(*given[0], f"cells are joined across their faces by the {joiners} effect: name it in scene.effects")
 
 
 def loads(text: str, overrides: list[tuple[str, Any]] | None = None, base: Path | None = None, geometry: bool = True) -> Scene:

@@ -46,6 +46,10 @@ class Icebergs:
     # centroid, counter-clockwise (N, V, 2), zero past its count (N,); None: all rectangles
     outline: np.ndarray | None = None
     corners: np.ndarray | None = None
+    # cells (an iceberg given with cells = [nx, nz]): each body's iceberg (N,) and its place
+    # (ix, iz) in that iceberg's grid (N, 2); None: every body is a whole iceberg
+    parent: np.ndarray | None = None
+    cell: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -78,6 +82,65 @@ def with_outlines(bergs: list[np.ndarray | None], cols: dict) -> Icebergs:
         corners[i] = k
         width[i], thickness[i] = o["width"], o["thickness"]
     return Icebergs(**{**cols, "width": width, "thickness": thickness}, outline=shape, corners=corners)
+
+
+def partitioned(bergs: Icebergs, cells: list[tuple[int, int]]) -> Icebergs:
+    """``bergs`` with iceberg ``i`` cut into ``cells[i] = (nx, nz)`` cells, each a body: nx
+    across the width (u), nz through the thickness (v), in the order of the icebergs and,
+    within one, column by column from -u, each column from -v. A rectangle's cells are the
+    rectangles of its width / nx and thickness / nz; an outline of 4 corners is cut along its
+    sides (the bilinear map of its corners, whose lines of constant parameter are straight,
+    so neighbouring cells share whole faces): each cell the quadrilateral between them. Every
+    cell keeps the iceberg's tilt and moves with it rigidly (``v + omega x r``); the cells tile
+    the outline, so their masses, moments about the iceberg's centre and displaced water add
+    up to the whole's. ``bergs`` itself if every iceberg is one cell."""
+    if all(tuple(c) == (1, 1) for c in cells):
+        return bergs
+    names = ("x", "z", "theta", "vx", "vz", "omega", "width", "thickness")
+    cols: dict[str, list] = {k: [] for k in names}
+    shapes: list[np.ndarray | None] = []
+    parent, place = [], []
+    for i, (nx, nz) in enumerate(cells):
+        rect = bergs.outline is None or (bergs.corners[i] == 4 and _is_rectangle(bergs, i))
+        if rect:
+            w, h = float(bergs.width[i]), float(bergs.thickness[i])
+            bl, br, tr, tl = (np.array(p) for p in ((-w / 2, -h / 2), (w / 2, -h / 2), (w / 2, h / 2), (-w / 2, h / 2)))
+        else:
+            q = bergs.outline[i, :4]
+            k = int(np.argmax(np.roll(q[:, 1], -1) - q[:, 1]))  # the side that rises: counter-clockwise, the +u one
+            br, tr, tl, bl = (q[(k + j) % 4] for j in range(4))
+        c, s_ = math.cos(bergs.theta[i]), math.sin(bergs.theta[i])
+        for ix in range(nx):
+            s0, s1 = ix / nx, (ix + 1) / nx
+            for iz in range(nz):
+                r0, r1 = iz / nz, (iz + 1) / nz
+
+                def at(a, b):
+                    return (1 - a) * (1 - b) * bl + a * (1 - b) * br + a * b * tr + (1 - a) * b * tl
+
+                quad = np.array([at(s1, r0), at(s1, r1), at(s0, r1), at(s0, r0)])
+                if rect:
+                    centre = np.array([(s0 + s1 - 1.0) * w / 2, (r0 + r1 - 1.0) * h / 2])
+                    width, thickness, shape = w / nx, h / nz, None
+                else:
+                    o = outline(quad, 1.0)
+                    centre, shape = np.asarray(o["centroid"], dtype=np.float64), quad - np.asarray(o["centroid"])
+                    width, thickness = o["width"], o["thickness"]
+                rx, rz = c * centre[0] - s_ * centre[1], s_ * centre[0] + c * centre[1]
+                om = float(bergs.omega[i])
+                row = (bergs.x[i] + rx, bergs.z[i] + rz, bergs.theta[i], bergs.vx[i] - om * rz, bergs.vz[i] + om * rx, om)
+                for key, v in zip(names, (*row, width, thickness), strict=True):
+                    cols[key].append(float(v))
+                shapes.append(shape)
+                parent.append(i)
+                place.append((ix, iz))
+    arrays = {k: np.array(v) for k, v in cols.items()}
+    out = with_outlines(shapes, arrays)
+    return Icebergs(
+        **{f: getattr(out, f) for f in out.__dataclass_fields__ if f not in ("parent", "cell")},
+        parent=np.array(parent, dtype=np.int64),
+        cell=np.array(place, dtype=np.int64).reshape(-1, 2),
+    )
 
 
 # what an [[iceberg]] table's z may say instead of a number (or say by leaving z out): the

@@ -161,6 +161,27 @@ OUTPUT = (
     ),
 )
 
+
+def _cells(v) -> bool:
+    return (
+        isinstance(v, list) and len(v) == 2 and all(isinstance(q, int) and not isinstance(q, bool) and 1 <= q <= 1000 for q in v)
+    )
+
+
+def cells_key(where: str) -> Key:
+    """``cells = [nx, nz]``: the iceberg (``where``) partitioned into cells joined across their faces."""
+    return Key(
+        "cells",
+        [1, 1],
+        "1",
+        f"{where} as nx x nz cells, nx across the width and nz through the thickness (a quadrilateral outline: "
+        "along its sides), each a body, joined across every shared face by an effect that joins them (docs/bonds.md, "
+        "Cells); mass, inertia and buoyancy add up to the whole's; [1, 1]: one body",
+        _cells,
+        "must be [nx, nz], two integers in [1, 1000]",
+    )
+
+
 SHELF = (
     Key("count", 400, "1", "icebergs in the row", lambda v: 1 <= v <= 10_000_000, "must be in [1, 10000000]"),
     Key("width", 1.0, "w", "width of every iceberg (the mean width with `width_std`)", lambda v: v > 0.0, "must be > 0"),
@@ -225,6 +246,7 @@ SHELF = (
         lambda v: v >= 0,
         "must be >= 0",
     ),
+    cells_key("each piece of the shelf"),
 )
 
 START = (
@@ -253,8 +275,9 @@ ICEBERG = (
         "w",
         "instead of width and thickness, any convex outline: its corners [[x, z], ...] in the body frame at theta = 0, "
         "counter-clockwise, 3 to 8; the outline is moved so that its centroid (the centre of mass) sits at x, z "
-        "(docs/model.md, Outlines); so far without bonds",
+        "(docs/model.md, Outlines)",
     ),
+    cells_key("the iceberg (a rectangle, or an outline of 4 corners)"),
 )
 
 # The tables of a scene file and their keys; [[iceberg]] is an array of tables.

@@ -191,6 +191,8 @@ class Effect:
                      gives each, 0 in a run without it)
     ``requires``     effects of which the scene must name at least one with it, and
     ``requires_doc`` why (the refusal's words)
+    ``joins``        it joins the cells of an iceberg given as ``cells = [nx, nz]`` across
+                     their shared faces (a scene with cells must name such an effect)
 
     Its kernels and host code are linked to it by name from the floors above (a declaration
     imports neither): its Taichi side, the module of its terms and ``STAGES``
@@ -229,6 +231,7 @@ class Effect:
     reports: tuple[Quantity, ...] = ()
     requires: tuple[str, ...] = ()
     requires_doc: str = ""
+    joins: bool = False
 
     def __post_init__(self):
         unknown = set(self.terms) - set(TERMS)

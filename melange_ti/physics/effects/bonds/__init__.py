@@ -139,6 +139,7 @@ BOND_KEYS = (
 
 EFFECT = Effect(
     name="bonds",
+    joins=True,
     doc="beyond the paper: elastic beam bonds (normal, shear, bending) glue icebergs that touch at t = 0 "
     "([shelf] bonded = true, or [[bond]] tables); a bond breaks when F_n / t + 6 |M| / t^2 > tensile_strength "
     "or its shear stress exceeds shear_strength; bond_energy part of E, fracture_released and "

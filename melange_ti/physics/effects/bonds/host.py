@@ -64,39 +64,77 @@ def wall_faces(bergs, i: np.ndarray, wall_x: float):
 
 def pairs(scene, bergs) -> tuple[list[tuple[int, int]], tuple[str, object, str] | None]:
     """The bonded pairs ``(a, b)`` of the scene (``b = -1``: the wall), or the refusal
-    ``(key, value, accepts)`` of a ``[[bond]]`` table that cannot bond."""
+    ``(key, value, accepts)`` of a ``[[bond]]`` table that cannot bond. With cells (an
+    iceberg given as ``cells = [nx, nz]``) the pairs are of cells: every two neighbours in an
+    iceberg's grid, and across a bonded joint (a shelf's, a ``[[bond]]``'s, the wall's) every
+    two cells that share a face there."""
+    cells = bergs.parent is not None
+    out = _inner_pairs(bergs) if cells else []
     sh = scene.shelf
     if sh is not None:
         if not sh.bonded:
-            return [], None
-        n = bergs.count
-        last = n - sh.front  # icebergs [0, last) are the bonded shelf
-        out = [(-2, 0)] if sh.bonded_wall and last > 0 else []
-        out += [(i, i + 1) for i in range(max(0, last - 1))]
-        return [(0, -1) if p == (-2, 0) else p for p in out], None
+            return out, None
+        pieces = int(bergs.parent.max()) + 1 if cells else bergs.count
+        last = pieces - sh.front  # icebergs [0, last) are the bonded shelf
+        if not cells:
+            out = [(0, -1)] if sh.bonded_wall and last > 0 else []
+            out += [(i, i + 1) for i in range(max(0, last - 1))]
+            return out, None
+        if sh.bonded_wall and last > 0:
+            out += _wall_pairs(scene, bergs, 0)
+        for i in range(max(0, last - 1)):
+            out += _joint_pairs(bergs, i, i + 1)
+        return out, None
     tables = dict(scene.tables).get("bond", ())
-    out = []
+    icebergs = int(bergs.parent.max()) + 1 if cells else bergs.count
     seen = set()
     for k, t in enumerate(tables):
         a, b = int(t["a"]), int(t["b"])
         for key, v in (("a", a), ("b", b)):
-            if v >= bergs.count:
-                return [], (f"bond[{k}].{key}", v, f"must be an [[iceberg]] index below {bergs.count}")
+            if v >= icebergs:
+                return [], (f"bond[{k}].{key}", v, f"must be an [[iceberg]] index below {icebergs}")
         if a == b:
             return [], (f"bond[{k}].b", b, "must differ from bond.a (an iceberg is not bonded to itself)")
         p = (min(a, b), max(a, b))
         if p in seen:
             return [], (f"bond[{k}].b", b, f"icebergs {p[0]} and {p[1]} are bonded already by an earlier [[bond]]")
         seen.add(p)
-        if shared_face(bergs, *p) is None:
+        joint = _joint_pairs(bergs, *p) if cells else ([p] if shared_face(bergs, *p) is not None else [])
+        if not joint:
             return [], (
                 f"bond[{k}].b",
                 b,
                 f"icebergs {p[0]} and {p[1]} share no face at t = 0 (bonded faces must face each other within "
                 f"{TOUCH:g} w and overlap)",
             )
-        out.append(p)
+        out += joint
     return out, None
+
+
+def _inner_pairs(bergs) -> list[tuple[int, int]]:
+    """Every two cells of one iceberg that are neighbours in its grid (they share a face)."""
+    index = {(int(p), int(ix), int(iz)): k for k, (p, (ix, iz)) in enumerate(zip(bergs.parent, bergs.cell, strict=True))}
+    out = []
+    for (p, ix, iz), k in index.items():
+        for nb in ((p, ix + 1, iz), (p, ix, iz + 1)):
+            if nb in index:
+                out.append((k, index[nb]))
+    return out
+
+
+def _joint_pairs(bergs, a: int, b: int) -> list[tuple[int, int]]:
+    """The cells of iceberg ``a`` and of ``b`` that share a face at t = 0, as pairs."""
+    ca, cb = np.flatnonzero(bergs.parent == a), np.flatnonzero(bergs.parent == b)
+    i, j = np.repeat(ca, cb.size), np.tile(cb, ca.size)
+    found = shared_faces(bergs, i, j)[3]
+    return [(int(p), int(q)) for p, q in zip(i[found], j[found], strict=True)]
+
+
+def _wall_pairs(scene, bergs, a: int) -> list[tuple[int, int]]:
+    """The cells of iceberg ``a`` with a face on the wall at t = 0, each bonded to it."""
+    ca = np.flatnonzero(bergs.parent == a)
+    found = wall_faces(bergs, ca, scene.physics.wall_x)[3]
+    return [(int(k), -1) for k in ca[found]]
 
 
 def build(scene, bergs, pair_list) -> np.ndarray:
