@@ -64,7 +64,9 @@ Physics = _section_class("Physics", K.PHYSICS)
 Contacts = _section_class("Contacts", K.CONTACTS)
 Time = _section_class("Time", K.TIME, {"steps": property(_steps)})
 Output = _section_class("Output", K.OUTPUT)
-Shelf = _section_class("Shelf", K.SHELF)
+
+
+Shelf = _section_class("Shelf", K.SHELF, {"intact": property(K.shelf_intact)})
 Start = _section_class("Start", K.START)
 CLASSES: dict[str, type] = {"physics": Physics, "contacts": Contacts, "time": Time, "output": Output, "shelf": Shelf}
 ICEBERG_DEFAULTS = {k.name: k.default for k in K.ICEBERG if not isinstance(k.default, list)}  # numbers, per iceberg
@@ -480,6 +482,8 @@ def from_dict(
         tables=_effect_tables(doc, table is not None),
     )
     _check_cells(scene)
+    if shelf is not None and (bad := K.shelf_problem(shelf)) is not None:
+        raise error(*bad)
     # the time step's stability first: a dt far too large is not blamed on an interval
     icebergs = check_time_step(scene) if geometry else None
     _whole_steps("time.duration", time.duration, time.dt)

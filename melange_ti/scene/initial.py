@@ -84,6 +84,12 @@ def with_outlines(bergs: list[np.ndarray | None], cols: dict) -> Icebergs:
     return Icebergs(**{**cols, "width": width, "thickness": thickness}, outline=shape, corners=corners)
 
 
+def _bilinear(bl, br, tr, tl, a: float, b: float) -> np.ndarray:
+    """The point at fractions ``a`` along the bottom and top and ``b`` up the sides of the
+    quadrilateral of corners ``bl, br, tr, tl``."""
+    return (1 - a) * (1 - b) * bl + a * (1 - b) * br + a * b * tr + (1 - a) * b * tl
+
+
 def partitioned(bergs: Icebergs, cells: list[tuple[int, int]]) -> Icebergs:
     """``bergs`` with iceberg ``i`` cut into ``cells[i] = (nx, nz)`` cells, each a body: nx
     across the width (u), nz through the thickness (v), in the order of the icebergs and,
@@ -114,11 +120,7 @@ def partitioned(bergs: Icebergs, cells: list[tuple[int, int]]) -> Icebergs:
             s0, s1 = ix / nx, (ix + 1) / nx
             for iz in range(nz):
                 r0, r1 = iz / nz, (iz + 1) / nz
-
-                def at(a, b):
-                    return (1 - a) * (1 - b) * bl + a * (1 - b) * br + a * b * tr + (1 - a) * b * tl
-
-                quad = np.array([at(s1, r0), at(s1, r1), at(s0, r1), at(s0, r0)])
+                quad = np.array([_bilinear(bl, br, tr, tl, a, b) for a, b in ((s1, r0), (s1, r1), (s0, r1), (s0, r0))])
                 if rect:
                     centre = np.array([(s0 + s1 - 1.0) * w / 2, (r0 + r1 - 1.0) * h / 2])
                     width, thickness, shape = w / nx, h / nz, None
@@ -209,7 +211,7 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
     # the gaps up to each iceberg, from the wall
     start = physics.wall_x + shelf.gap
     gaps = np.arange(n) * shelf.gap
-    if shelf.bonded:
+    if shelf.intact:
         # an intact shelf: no gaps (none at the wall either when bonded to it), upright; the
         # seaward ``front`` icebergs free, ``gap`` apart, with their tilts
         last = max(0, n - shelf.front)
@@ -218,7 +220,7 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
         theta = np.where(np.arange(n) < last, 0.0, theta)
     if shelf.width_std > 0:  # each iceberg's left face after the widths before it
         x = start + np.concatenate([[0.0], np.cumsum(width[:-1])]) + gaps + 0.5 * width
-    elif shelf.bonded:  # equal widths: the formulas the regression hashes were recorded with
+    elif shelf.intact:  # equal widths: the formulas the regression hashes were recorded with
         x = start + 0.5 * shelf.width + np.arange(n) * shelf.width + gaps
     else:
         x = start + 0.5 * shelf.width + np.arange(n) * (shelf.width + shelf.gap)
@@ -254,7 +256,7 @@ def _cut_shelf(shelf, physics, rng, cols: dict) -> Icebergs:
     x, z, w, h = cols["x"], cols["z"], cols["width"], cols["thickness"]
     wl = physics.water_level
     # each cut's gap: none between two icebergs of an intact shelf (``bonded``)
-    intact = max(0, n - shelf.front) if shelf.bonded else 0
+    intact = max(0, n - shelf.front) if shelf.intact else 0
     gap = np.full(max(n - 1, 0), float(shelf.gap))
     gap[: max(0, intact - 1)] = 0.0
     mid = x[:-1] + 0.5 * w[:-1] + 0.5 * gap  # each cut's point at the water line

@@ -246,8 +246,61 @@ SHELF = (
         lambda v: v >= 0,
         "must be >= 0",
     ),
+    Key(
+        "crevasse_depth",
+        0.0,
+        "1",
+        "with bonded: the fraction of the thickness open from the surface at every joint between two bonded pieces "
+        "at t = 0 (a surface crevasse; the joint's bonds hold the intact ligament below it); 1, a crevasse through "
+        "the whole thickness, is the paper's pre-cut shelf: free pieces with `gap` and `tilt` (docs/bonds.md, Crevasses)",
+        lambda v: 0.0 <= v <= 1.0,
+        "must be in [0, 1]",
+    ),
+    Key(
+        "basal_crevasse_depth",
+        0.0,
+        "1",
+        "with bonded: the fraction of the thickness open from the base at every joint (a basal crevasse), with "
+        "`crevasse_depth` at most 1 in all (1: cut through, the pre-cut shelf)",
+        lambda v: 0.0 <= v <= 1.0,
+        "must be in [0, 1]",
+    ),
+    Key(
+        "joint_strength",
+        1.0,
+        "1",
+        "with bonded: the strength of the ice across a joint between pieces as a fraction of the ice's "
+        "(`tensile_strength`, `shear_strength`; 1: as strong; with `cells`, the bonds inside a piece keep the ice's)",
+        lambda v: v > 0.0,
+        "must be > 0",
+    ),
     cells_key("each piece of the shelf"),
 )
+
+
+def shelf_intact(shelf) -> bool:
+    """An intact shelf: bonded, its joints not cut through by crevasses."""
+    return bool(shelf.bonded and shelf.crevasse_depth + shelf.basal_crevasse_depth < 1.0)
+
+
+def shelf_problem(shelf) -> tuple[str, object, str] | None:
+    """What the shelf's keys get wrong together, as ``(key, value, accepts)``: crevasses on a
+    shelf that is not bonded, or crevasses that overlap."""
+    given = [
+        (f"shelf.{k}", getattr(shelf, k), d)
+        for k, d in (("crevasse_depth", 0.0), ("basal_crevasse_depth", 0.0), ("joint_strength", 1.0))
+    ]
+    given = [(k, v) for k, v, d in given if v != d]
+    if given and not shelf.bonded:
+        return (*given[0], "shapes the joints of a bonded shelf: set shelf.bonded = true too")
+    if shelf.crevasse_depth + shelf.basal_crevasse_depth > 1.0:
+        return (
+            "shelf.basal_crevasse_depth",
+            shelf.basal_crevasse_depth,
+            f"with shelf.crevasse_depth = {shelf.crevasse_depth:g} the crevasses overlap; the two must add up to at most 1",
+        )
+    return None
+
 
 START = (
     Key("file", "", "", "a run file (relative to the scene file) whose snapshot is the initial state"),

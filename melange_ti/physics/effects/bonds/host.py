@@ -72,7 +72,7 @@ def pairs(scene, bergs) -> tuple[list[tuple[int, int]], tuple[str, object, str] 
     out = _inner_pairs(bergs) if cells else []
     sh = scene.shelf
     if sh is not None:
-        if not sh.bonded:
+        if not sh.intact:  # no joints, or every joint cut through: the pieces are free
             return out, None
         pieces = int(bergs.parent.max()) + 1 if cells else bergs.count
         last = pieces - sh.front  # icebergs [0, last) are the bonded shelf
@@ -138,12 +138,65 @@ def _wall_pairs(scene, bergs, a: int) -> list[tuple[int, int]]:
 
 
 def build(scene, bergs, pair_list) -> np.ndarray:
-    """The bond table's rows at t = 0 (f64) for ``pair_list``: the geometry, then the material."""
-    return material(scene, bergs, geometry(scene.physics.wall_x, bergs, pair_list))
+    """The bond table's rows at t = 0 (f64) for ``pair_list``: the geometry, then the material.
+    A bonded shelf's joints keep the intact ligament between its crevasses (:func:`joints`):
+    a joint's bond is cut down to it, and a cell's bond wholly within a crevasse is not made."""
+    joint, band = joints(scene, bergs, pair_list)
+    rows = geometry(scene.physics.wall_x, bergs, pair_list, band)
+    if joint.any():
+        keep = rows[: len(pair_list), Bond.LEN] > MIN_OVERLAP
+        rows, joint = rows[: len(pair_list)][keep], joint[keep]
+        if not rows.shape[0]:
+            rows = geometry(scene.physics.wall_x, bergs, [])
+    out = material(scene, bergs, rows)
+    if joint.any() and scene.shelf.joint_strength != 1.0:  # the kept pairs are the first rows, in order
+        out[np.flatnonzero(joint), Bond.ST] *= scene.shelf.joint_strength
+        out[np.flatnonzero(joint), Bond.SS] *= scene.shelf.joint_strength
+    return out
 
 
-def geometry(wall_x: float, bergs, pair_list) -> np.ndarray:
-    """Rows with each bond's pair and rest geometry (``GEOMETRY`` columns), intact."""
+def joints(scene, bergs, pair_list) -> tuple[np.ndarray, np.ndarray]:
+    """Which pairs join two pieces of a bonded shelf (not a cell to its piece's cell, not the
+    wall), and each pair's intact band of heights ``(P, 2)`` at t = 0: at a joint, from
+    ``basal_crevasse_depth`` of the joint's height above its base to ``crevasse_depth`` of it
+    below its top (the joint's height: where both pieces reach); elsewhere unbounded."""
+    n = len(pair_list)
+    band = np.tile([-np.inf, np.inf], (n, 1))
+    joint = np.zeros(n, dtype=bool)
+    sh = scene.shelf
+    if sh is None or not n or not sh.intact:
+        return joint, band
+    pr = np.asarray(pair_list, dtype=np.int64)
+    piece = bergs.parent if bergs.parent is not None else np.arange(bergs.count)
+    pa, pb = piece[pr[:, 0]], np.where(pr[:, 1] >= 0, piece[np.maximum(pr[:, 1], 0)], -1)
+    joint = (pr[:, 1] >= 0) & (pa != pb)
+    if not joint.any() or sh.crevasse_depth + sh.basal_crevasse_depth == 0.0:
+        return joint, band
+    low, high = heights(bergs, piece)
+    bottom = np.maximum(low[pa], low[np.maximum(pb, 0)])
+    top = np.minimum(high[pa], high[np.maximum(pb, 0)])
+    h = top - bottom
+    band[joint, 0] = (bottom + sh.basal_crevasse_depth * h)[joint]
+    band[joint, 1] = (top - sh.crevasse_depth * h)[joint]
+    return joint, band
+
+
+def heights(bergs, piece: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The lowest and highest point of each piece (the icebergs, or the ones whose cells
+    ``piece`` names) at t = 0."""
+    low, high = np.full(int(piece.max()) + 1, np.inf), np.full(int(piece.max()) + 1, -np.inf)
+    _centre, _normal, tangent, half = faces(bergs, np.arange(bergs.count))
+    ends = _centre[..., 1] + np.abs(tangent[..., 1]) * np.where(half > 0, half, 0.0)
+    starts = _centre[..., 1] - np.abs(tangent[..., 1]) * np.where(half > 0, half, 0.0)
+    np.minimum.at(low, piece, np.where(half > 0, starts, np.inf).min(1))
+    np.maximum.at(high, piece, np.where(half > 0, ends, -np.inf).max(1))
+    return low, high
+
+
+def geometry(wall_x: float, bergs, pair_list, band: np.ndarray | None = None) -> np.ndarray:
+    """Rows with each bond's pair and rest geometry (``GEOMETRY`` columns), intact; ``band``:
+    each pair's intact heights ``(P, 2)`` (:func:`joints`), its face cut down to them (its
+    point the middle of what is left; its length 0 if nothing is)."""
     rows = np.zeros((max(1, len(pair_list)), TABLE.size))
     rows[:, Bond.A] = -1.0
     rows[:, Bond.B] = -1.0
@@ -157,6 +210,8 @@ def geometry(wall_x: float, bergs, pair_list) -> np.ndarray:
     if wall.any():
         wp, wn, wl, _ = wall_faces(bergs, i[wall], wall_x)
         point[wall], normal[wall], length[wall] = wp, wn, wl
+    if band is not None and np.isfinite(band).any():
+        point, length = _within(point, normal, length, band)
     x = np.stack([np.asarray(bergs.x, dtype=np.float64), np.asarray(bergs.z, dtype=np.float64)], -1)
     th = np.asarray(bergs.theta, dtype=np.float64)
     xi = x[i]
@@ -179,6 +234,25 @@ def geometry(wall_x: float, bergs, pair_list) -> np.ndarray:
     rows[:n, Bond.SPAN] = span
     rows[:n, Bond.INTACT] = 1.0
     return rows
+
+
+def _within(point: np.ndarray, normal: np.ndarray, length: np.ndarray, band: np.ndarray):
+    """Each face (its middle ``point``, ``normal``, ``length``) cut down to the heights
+    ``band``: the new middle and length (0: nothing left). A face that does not rise
+    (horizontal) is kept whole or dropped by its height."""
+    tangent = np.stack([-normal[:, 1], normal[:, 0]], -1)
+    half = 0.5 * length
+    rise = tangent[:, 1]
+    flat = np.abs(rise) < 1e-12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = (band[:, 0] - point[:, 1]) / rise
+        b = (band[:, 1] - point[:, 1]) / rise
+    lo = np.maximum(-half, np.where(flat, -np.inf, np.minimum(a, b)))
+    hi = np.minimum(half, np.where(flat, np.inf, np.maximum(a, b)))
+    inside = ~flat | ((point[:, 1] >= band[:, 0]) & (point[:, 1] <= band[:, 1]))
+    keep = inside & (hi - lo > MIN_OVERLAP)
+    mid = np.where(keep, 0.5 * (lo + hi), 0.0)
+    return point + mid[:, None] * tangent, np.where(keep, hi - lo, 0.0)
 
 
 def material(scene, bergs, rows: np.ndarray) -> np.ndarray:

@@ -1,0 +1,183 @@
+"""Crevasse fields (``[shelf] crevasse_depth``, ``basal_crevasse_depth``, ``joint_strength``;
+docs/bonds.md "Crevasses"; issue 50, item 2).
+
+A joint between two bonded pieces is a crevasse open over ``d t`` from the surface and
+``b t`` from the base; the bond across it holds the intact ligament between, so its face is
+the band ``[bottom + b t, top - d t]``: length ``(1 - d - b) t`` (over the cosine of a
+leaning cut's tilt), its point the band's middle. With cells, a layer wholly in a crevasse
+is not bonded across it. ``d + b = 1`` cuts the shelf through: the paper's pre-cut shelf,
+bit for bit. The model's shelf starts unstressed: every piece floats at its own draft and
+the bonds are at rest in that state (docs/bonds.md derives the frontal load it leaves out),
+so a shelf with no free front stays at rest.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import melange_ti as mt
+from melange_ti.io.hdf5 import read_run
+from melange_ti.physics.effects.bonds import Bond
+from melange_ti.physics.effects.bonds.host import build, pairs
+from melange_ti.scene import DENSITY_RATIO, SceneError, loads
+
+R = DENSITY_RATIO
+H = 1.4
+EFFECTS = '["gravity", "buoyancy", "drag", "collisions", "wall", "bonds"]'
+
+
+def shelf_scene(shelf: str, dt=0.002, duration=1.0, physics="bond_modulus = 100.0\n") -> str:
+    return (
+        f"[scene]\neffects = {EFFECTS}\n[physics]\n{physics}[time]\ndt = {dt}\nduration = {duration}\n"
+        f"[output]\nsnapshot_interval = {duration / 4}\ndiagnostic_interval = {duration / 20}\n"
+        f"[shelf]\ncount = 5\nbonded = true\nbonded_wall = true\n{shelf}"
+    )
+
+
+def table_of(text: str):
+    sc = loads(text)
+    b = sc.icebergs()
+    got, bad = pairs(sc, b)
+    assert bad is None
+    t = build(sc, b, got)
+    return sc, b, t[t[:, Bond.A] >= 0]
+
+
+@pytest.mark.parametrize("tilt", [0.0, 0.25])
+@pytest.mark.parametrize("d, b", [(0.0, 0.0), (0.3, 0.0), (0.0, 0.4), (0.35, 0.25)])
+def test_a_joint_holds_the_ligament_between_its_crevasses(d, b, tilt):
+    """Every joint's bond: length ``(1 - d - b) t / cos(tilt)``, its point at the band's
+    middle height ``z0 + t (b - d) / 2`` (z0 the shelf's mid-thickness); the wall's bond
+    (the grounding line) whole."""
+    text = shelf_scene(f"crevasse_depth = {d}\nbasal_crevasse_depth = {b}\ncut_tilt = {tilt}\n")
+    sc, bergs, t = table_of(text)
+    wall = t[:, Bond.B] < 0
+    joint = ~wall
+    assert wall.sum() == 1 and joint.sum() == 3  # 4 bonded pieces, the front one free
+    np.testing.assert_allclose(t[wall, Bond.LEN], H, rtol=1e-12)
+    np.testing.assert_allclose(t[joint, Bond.LEN], (1 - d - b) * H / math.cos(tilt), rtol=1e-12)
+    a = t[joint, Bond.A].astype(int)
+    th = bergs.theta[a]
+    height = bergs.z[a] + np.sin(th) * t[joint, Bond.UA] + np.cos(th) * t[joint, Bond.VA]
+    z0 = -R * H + H / 2
+    np.testing.assert_allclose(height, z0 + H * (b - d) / 2, rtol=0, atol=1e-12)
+
+
+def test_with_cells_a_layer_in_a_crevasse_is_not_bonded_across_it():
+    """Pieces of 2 x 4 cells, a crevasse of 0.5 from the surface and 0.25 from the base: only
+    layer 1 (of 0-3 from the base) is bonded across each joint; every layer at the wall; the
+    cells inside a piece all bonded, at the ice's strength while the joints hold
+    ``joint_strength`` of it."""
+    text = shelf_scene("crevasse_depth = 0.5\nbasal_crevasse_depth = 0.25\njoint_strength = 0.4\ncells = [2, 4]\n")
+    sc, bergs, t = table_of(text)
+    a, b = t[:, Bond.A].astype(int), t[:, Bond.B].astype(int)
+    wall = b < 0
+    joint = ~wall & (bergs.parent[a] != bergs.parent[np.maximum(b, 0)])
+    assert joint.sum() == 3 and np.all(bergs.cell[a[joint], 1] == 1) and np.all(bergs.cell[b[joint], 1] == 1)
+    assert wall.sum() == 4
+    inner = ~wall & ~joint
+    assert inner.sum() == 5 * (4 * 1 + 2 * 3)
+    st = sc.physics.tensile_strength
+    np.testing.assert_allclose(t[inner | wall, Bond.ST], st, rtol=1e-12)
+    np.testing.assert_allclose(t[joint, Bond.ST], 0.4 * st, rtol=1e-12)
+    np.testing.assert_allclose(t[joint, Bond.SS], 0.4 * sc.physics.shear_strength, rtol=1e-12)
+    np.testing.assert_allclose(t[joint, Bond.LEN], H / 4, rtol=1e-12)
+
+
+def test_a_shelf_cut_through_is_the_paper_scene_bit_for_bit(tmp_path):
+    """``crevasse_depth = 1`` on a bonded shelf (bonds named, a Weibull spread, bonded to the
+    wall): the paper's pre-cut row, free with its gaps and tilts, the same bits as the paper
+    scene without bonds, through capsizes and collisions."""
+    over = {"shelf.count": 30, "shelf.tilt": 0.15, "shelf.gap": 0.2, "time.duration": 40.0, "output.snapshot_interval": 2.0}
+    paper = mt.load_scene(overrides=over)
+    cut = mt.load_scene(
+        overrides={
+            **over,
+            "scene.effects+": "bonds",
+            "shelf.bonded": True,
+            "shelf.bonded_wall": True,
+            "shelf.crevasse_depth": 0.6,
+            "shelf.basal_crevasse_depth": 0.4,
+            "physics.strength_modulus": 5.0,
+        }
+    )
+    mt.run(paper, tmp_path / "paper.h5")
+    mt.run(cut, tmp_path / "cut.h5")
+    a, b = read_run(tmp_path / "paper.h5"), read_run(tmp_path / "cut.h5")
+    assert a["diagnostics"]["capsized_fraction"][-1] > 0 and a["diagnostics"]["collision_dissipated"][-1] > 0
+    for k in ("x", "z", "theta", "vx", "vz", "omega"):
+        np.testing.assert_array_equal(a["snapshots"][k], b["snapshots"][k], err_msg=k)
+    for k, v in a["diagnostics"].items():
+        np.testing.assert_array_equal(v, b["diagnostics"][k], err_msg=k)
+
+
+@pytest.mark.parametrize("shelf", ["", "crevasse_depth = 0.4\n"])
+def test_an_intact_shelf_with_no_free_front_starts_and_stays_unstressed(tmp_path, shelf):
+    """What stress the model's shelf starts with: none. Each piece floats at its own draft and
+    every face, joints included, feels the water's pressure (buoyancy is the pressure on the
+    piece's whole wetted outline), so the pressures on a joint's two faces cancel and each
+    piece is in equilibrium alone; the bonds form at rest in that state. A shelf with no free
+    front (front = 0) so stays at rest: its bonds hold no energy beyond round-off (1e-12 of a
+    piece's weight times a width) and no piece moves (1e-10 w) over 20 time units, at the
+    default modulus."""
+    text = shelf_scene(f"front = 0\n{shelf}", dt=0.002, duration=20.0, physics="")
+    out = tmp_path / "rest.h5"
+    mt.run(loads(text), out)
+    d = read_run(out)
+    s = d["snapshots"]
+    assert d["diagnostics"]["bond_energy"].max() < 1e-12 * R * H
+    for k in ("x", "z", "theta"):
+        assert np.abs(s[k] - s[k][0]).max() < 1e-10, k
+    assert int(d["diagnostics"]["bonds_intact"][-1]) == d["bonds"]["a"].size
+
+
+def test_a_shelf_of_two_layers_settles_to_carry_its_upper_layer(tmp_path):
+    """With cells through the thickness a piece's layers are not each in equilibrium: the
+    upper layer (thickness ``t_c = t / 2``, top at the freeboard ``f = (1 - r) t``) weighs
+    ``r w_c t_c`` and displaces ``w_c (t_c - f)``, so it presses on the lower one with
+    ``F = w_c (1 - r) t_c`` (``rho_w g = 1``), which the bond between them, ``k_n = E' w_c /
+    t_c``, carries in compression. The bonds start at rest, so the shelf settles to that
+    state: a free shelf (no wall) of 5 pieces of 2 x 2 cells, 10 such columns, ends holding
+    ``10 F^2 / (2 k_n)`` in its bonds (within 1%: the layers' sinking changes the water they
+    displace by ~1e-3 of it), no bond breaks (the load is compressive), nothing moves by
+    more than 1e-3 w."""
+    text = shelf_scene("front = 0\ncells = [2, 2]\n", dt=0.002, duration=20.0, physics="").replace("bonded_wall = true\n", "")
+    sc = loads(text)
+    out = tmp_path / "layers.h5"
+    mt.run(sc, out)
+    d = read_run(out)
+    wc, tc = 0.5, H / 2
+    e_strain = sc.physics.bond_modulus / (1 - sc.physics.poisson_ratio**2)
+    force, k = wc * (1 - R) * tc, e_strain * wc / tc
+    want = 10 * force**2 / (2 * k)
+    assert d["diagnostics"]["bond_energy"][-1] == pytest.approx(want, rel=0.01)
+    assert int(d["diagnostics"]["bonds_intact"][-1]) == d["bonds"]["a"].size
+    s = d["snapshots"]
+    for key in ("x", "z"):
+        assert np.abs(s[key] - s[key][0]).max() < 1e-3, key
+
+
+@pytest.mark.parametrize(
+    "shelf, key, words",
+    [
+        ("crevasse_depth = 1.2\n", "shelf.crevasse_depth", "[0, 1]"),
+        ("crevasse_depth = -0.1\n", "shelf.crevasse_depth", "[0, 1]"),
+        ("basal_crevasse_depth = 2\n", "shelf.basal_crevasse_depth", "[0, 1]"),
+        ("crevasse_depth = 0.7\nbasal_crevasse_depth = 0.5\n", "shelf.basal_crevasse_depth", "add up to at most 1"),
+        ("joint_strength = 0\n", "shelf.joint_strength", "> 0"),
+    ],
+)
+def test_bad_crevasses_are_refused_naming_the_key(shelf, key, words):
+    with pytest.raises(SceneError) as e:
+        loads(shelf_scene(shelf))
+    msg = str(e.value)
+    assert key in msg and words in msg and "\n" not in msg, msg
+
+
+def test_crevasses_on_a_shelf_that_is_not_bonded_are_refused():
+    text = shelf_scene("crevasse_depth = 0.3\n").replace("bonded = true\n", "")
+    with pytest.raises(SceneError, match=r"shelf.crevasse_depth = 0.3.*shelf.bonded = true"):
+        loads(text)
