@@ -67,12 +67,14 @@ def slab_text(
     vz=None,
     omega=None,
     layers: int = 1,
+    loaded: int | None = None,
 ) -> str:
     """The scene text of a bonded slab of ``n`` blocks centred on x = 0 (the middle block,
     ``n // 2``, taller upward by ``delta``); ``vz``, ``omega``: initial velocities per block;
     ``layers``: each block as that many cells through its thickness (``cells = [1, layers]``,
-    bonded to each other and, across each joint, layer to layer)."""
-    mid = n // 2
+    bonded to each other and, across each joint, layer to layer); ``loaded``: the taller block
+    instead of the middle one (0: the free end), at x = 0."""
+    mid = n // 2 if loaded is None else loaded
     effects = '"gravity", "buoyancy", "bonds"' + (', "drag"' if drag > 0 else "")
     out = [
         f'[scene]\nname = "bonds_beam"\neffects = [{effects}]\n',
@@ -188,11 +190,11 @@ def omega_timoshenko(E: float, t: float, k_wave: float) -> float:
 # ------------------------------------------------------------------ the discrete slab
 
 
-def discrete(n: int, b: float, t: float = 1.0, delta: float = 0.0, E: float = E0):
+def discrete(n: int, b: float, t: float = 1.0, delta: float = 0.0, E: float = E0, loaded: int | None = None):
     """The slab's linear algebra: ``(K, M, f, bonds)`` over the blocks' ``(x, z, theta)``,
     ``f`` the load (the middle block's extra weight), ``bonds`` each bond's ``(x, kn, kb,
     J)`` (J: the rows of d_n, d_s, dth)."""
-    mid = n // 2
+    mid = n // 2 if loaded is None else loaded
     th = np.full(n, t)
     th[mid] += delta
     xc = (np.arange(n) - mid) * b
@@ -227,10 +229,10 @@ def discrete(n: int, b: float, t: float = 1.0, delta: float = 0.0, E: float = E0
     return K, M, f, bonds
 
 
-def discrete_static(n, b, t=1.0, delta=0.0, E=E0):
+def discrete_static(n, b, t=1.0, delta=0.0, E=E0, loaded=None):
     """Settled deflection (down +) at the blocks' centres and each bond's tensile stress
     F_n / t + 6 |M| / t^2 (and the bonds' x)."""
-    K, _, f, bonds = discrete(n, b, t, delta, E)
+    K, _, f, bonds = discrete(n, b, t, delta, E, loaded)
     u = np.linalg.solve(K, f)
     sig = np.array([(kn * (J[0] @ u)) / t + 6 * abs(kb * (J[2] @ u)) / t**2 for _, kn, kb, J in bonds])
     return -u[1::3], sig, np.array([x for x, *_ in bonds])
@@ -547,6 +549,137 @@ def breaking_study(out_dir: Path, b=0.125, t=1.0, half=6.5, sigma_t=SIGMA_T, ite
 # ------------------------------------------------------------------ helpers
 
 
+# ------------------------------------------------------------------ 4. a load at the free edge
+
+
+def edge_peak(E: float, t: float) -> float:
+    """Where a semi-infinite floating beam loaded at its free end bends most: its moment
+    ``M(x) = -(P / beta) e^(-beta x) sin(beta x)`` peaks at ``x = pi / (4 beta)`` (the
+    footloose distance; ``1 / beta`` is sqrt(2) times the flexural length)."""
+    return math.pi / (4.0 * beta_of(E, t))
+
+
+def settled_stresses(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each bond's tensile stress ``F_n / t + 6 |M| / t^2`` in the last snapshot of a run
+    (from its bonds' rest table, docs/bonds.md), its x at t = 0 and whether it joins two
+    blocks side by side (its normal along x; not two layers of one block)."""
+    from melange_ti.io.hdf5 import read_run
+    from melange_ti.physics.effects.bonds import REST
+
+    r = read_run(str(path))
+    s, rest = r["snapshots"], np.asarray(r["bonds"]["rest"])
+    col = {name: rest[:, k] for k, name in enumerate(REST)}
+    a, b = col["A"].astype(np.int64), col["B"].astype(np.int64)
+    x, z, th = s["x"][-1], s["z"][-1], s["theta"][-1]
+
+    def at(i, u, v):
+        c, sn = np.cos(th[i]), np.sin(th[i])
+        return np.stack([x[i] + c * u - sn * v, z[i] + sn * u + c * v], -1)
+
+    d = at(b, col["UB"], col["VB"]) - at(a, col["UA"], col["VA"])
+    ca, sa = np.cos(th[a]), np.sin(th[a])
+    n = np.stack([ca * col["NU"] - sa * col["NV"], sa * col["NU"] + ca * col["NV"]], -1)
+    fn = col["KN"] * np.sum(d * n, -1)
+    m = col["KB"] * (th[b] - th[a] - col["DTH"])
+    x0 = s["x"][0][a] + np.cos(s["theta"][0][a]) * col["UA"] - np.sin(s["theta"][0][a]) * col["VA"]
+    return fn / col["LEN"] + 6 * np.abs(m) / col["LEN"] ** 2, x0, np.abs(col["NU"]) > 0.5
+
+
+def edge_run(b, t=1.0, E=E0, P=0.05, length=7.0, work=None, settle_time=30.0, layers=1) -> dict:
+    """A floating slab ``length / beta`` long, its end block (at x = 0, its free face at
+    ``-b/2``) taller by ``delta``: a point load ``P`` at the free edge. Settled with unbreakable
+    bonds; the bonds' stresses read from the settled state; restarted with the tensile
+    strength 0.9995 of the largest: the bonds that break first (the peak is flat: two
+    neighbours may both be within 0.05% of it), against ``pi / (4 beta)`` and the rigid-block
+    chain's largest."""
+    import melange_ti
+    import melange_ti.scene
+    from melange_ti.io.hdf5 import read_run
+
+    work = Path(work or tempfile.mkdtemp())
+    beta = beta_of(E, t)
+    n = int(math.ceil(length / beta / b)) + 1
+    delta = P / (R * b)
+    text = slab(n, b, t, delta, E=E, duration=settle_time, drag=1.0, zeta=0.05, loaded=0, layers=layers)
+    first = work / f"edge_{b:g}_{t:g}_{E:g}_{layers}.h5"
+    melange_ti.run(melange_ti.scene.loads(text), out=str(first), overwrite=True)
+    sig, xb, across = settled_stresses(first)
+    strength = 0.9995 * float(sig.max())
+    restart = text.split("[[iceberg]]")[0].replace(f"tensile_strength = {UNBREAKABLE!r}", f"tensile_strength = {strength!r}")
+    restart = restart.replace(f"duration = {settle_time!r}", "duration = 1.0")
+    restart += f'\n[start]\nfile = "{first}"\ntime = {settle_time!r}\n'
+    second = work / f"edge_break_{b:g}_{t:g}_{E:g}_{layers}.h5"
+    melange_ti.run(melange_ti.scene.loads(restart), out=str(second), overwrite=True)
+    bt = np.asarray(read_run(str(second))["bonds"]["break_time"])
+    broke = np.flatnonzero(bt == np.nanmin(bt)) if np.isfinite(bt).any() else np.array([], dtype=np.int64)
+    _, sig_d, x_d = discrete_static(n, b, t, delta, E, loaded=0)
+    peak = edge_peak(E, t)
+    x_break = float(xb[broke].mean()) if broke.size else float("nan")
+    far = float(xb[broke][np.argmax(np.abs(xb[broke] - edge_peak(E, t)))]) if broke.size else float("nan")
+    return dict(
+        width=b,
+        thickness=t,
+        layers=layers,
+        bond_modulus=E,
+        one_over_beta=1.0 / beta,
+        blocks=n,
+        blocks_per_peak_distance=peak / b,
+        peak_theory=peak,
+        peak_discrete=float(x_d[np.argmax(sig_d)]),
+        peak_model=float(xb[np.argmax(sig)]),
+        first_breaks_across_joints=int(np.sum(across[broke])),
+        first_break_x=x_break,
+        first_breaks=int(broke.size),
+        first_break_x_min=float(xb[broke].min()) if broke.size else float("nan"),
+        first_break_x_max=float(xb[broke].max()) if broke.size else float("nan"),
+        first_fragment_width=x_break + 0.5 * b,
+        error_in_cells=(far - peak) / b,
+        stress_model_over_discrete=float(sig.max() / sig_d.max() * 1.0),
+    )
+
+
+def edge_study(out_dir: Path, work=None):
+    """The first break under a load at the free edge against ``pi / (4 beta)``: at three
+    block widths (the default slab), and at two thicknesses and two moduli (``b = 0.25``)."""
+    rows = []
+    cases = [(b, 1.0, E0, 1) for b in (0.5, 0.25, 0.125)] + [(0.25, 0.5, E0, 1), (0.25, 1.0, 16 * E0, 1), (0.25, 0.5, 16 * E0, 1)]
+    cases += [(0.25, 1.0, E0, 2), (0.125, 1.0, E0, 2)]  # the slab as two layers of cells
+    for b, t, E, layers in cases:
+        row = edge_run(b, t, E, work=work, layers=layers)
+        rows.append(row)
+        print(
+            f"edge b={b:g} t={t:g} E={E / E0:g}xE0 layers={layers}: first break at x = {row['first_break_x_min']:.4f}-"
+            f"{row['first_break_x_max']:.4f} ({row['first_breaks']} bond(s)) vs pi/(4 beta) = {row['peak_theory']:.4f} "
+            f"(farthest {row['error_in_cells']:+.2f} cells); "
+            f"chain's peak {row['peak_discrete']:.4f}, model's {row['peak_model']:.4f}",
+            flush=True,
+        )
+    write_csv(out_dir / "edge.csv", rows)
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    peaks = np.array([r["peak_theory"] for r in rows])
+    ax.plot([0, peaks.max() * 1.15], [0, peaks.max() * 1.15], "k-", lw=1, label="x = pi / (4 beta)")
+    for r, mk in zip(rows, "os^Dv<PX", strict=True):
+        ax.errorbar(
+            r["peak_theory"],
+            r["first_break_x"],
+            yerr=r["width"],
+            fmt=mk,
+            mfc="none",
+            capsize=3,
+            label=f"b = {r['width']:g}, t = {r['thickness']:g}, E = {r['bond_modulus'] / E0:g} x default, "
+            f"{r['layers']} layer{'s' if r['layers'] > 1 else ''}",
+        )
+    ax.set(
+        xlabel="pi / (4 beta) (w)",
+        ylabel="first broken bond's distance from the load (w)",
+        title="a floating slab loaded at its free edge: where it breaks first (bars: one block)",
+    )
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out_dir / "edge.png", dpi=120)
+
+
 def write_csv(path: Path, rows: list[dict]) -> None:
     with open(path, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -565,7 +698,7 @@ def pyplot():
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("check", choices=("hetenyi", "modes", "breaking", "all"))
+    p.add_argument("check", choices=("hetenyi", "modes", "breaking", "edge", "all"))
     p.add_argument("--out", default="validation/results/bonds")
     a = p.parse_args()
     out = Path(a.out)
@@ -577,6 +710,8 @@ def main() -> None:
             modes_study(out, work=work)
         if a.check in ("breaking", "all"):
             breaking_study(out, work=work)
+        if a.check in ("edge", "all"):
+            edge_study(out, work=work)
 
 
 if __name__ == "__main__":

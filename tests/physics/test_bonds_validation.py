@@ -2,8 +2,8 @@
 test's size (``validation/bonds_beam.py`` runs them at full size, docs/validation.md "Bonds:
 a floating beam"; its scene builder, formulas and rigid-block chain are used here).
 
-The slab: blocks of width ``b = 0.4``, thickness 1, default modulus, so a flexural length
-``1/beta = 4.66`` holds 11.7 blocks (the issue's ">= 10"); half length ``5/beta``. Tolerances:
+The slab: blocks of width ``b = 0.4``, thickness 1, default modulus (plane strain), so
+``1/beta = 4.78`` (sqrt(2) times the flexural length) holds 11.9 blocks (the issue's ">= 10"); half length ``5/beta``. Tolerances:
 
 * against the formulas, the issue's (2% deflection and frequency, 5% breaking load);
 * against the rigid-block chain (the same blocks and bonds as numpy linear algebra), 0.1% /
@@ -92,3 +92,20 @@ def test_flexural_gravity_mode(tmp_path):
         assert row[f"omega_{half}"] == pytest.approx(row["omega_discrete"], rel=2e-3)
     assert row["omega_first_half"] == pytest.approx(row["omega_second_half"], rel=1e-3)  # undamped, linear
     assert row["bending_share"] > 0.2  # the bending term matters: without it omega is 1.057
+
+
+@pytest.mark.parametrize("b, t, layers", [(0.5, 1.0, 1), (0.25, 0.5, 1), (0.25, 1.0, 2)])
+def test_a_load_at_the_free_edge_breaks_the_slab_a_quarter_wave_in(b, t, layers, tmp_path):
+    """A floating slab loaded at its free edge (issue 50, item 7): the semi-infinite beam's
+    moment ``-(P / beta) e^(-beta x) sin(beta x)`` peaks at ``pi / (4 beta)``; settled, then
+    restarted with the strength just below its largest stress, the slab breaks first within
+    one block of it (every bond that breaks in that step), where the rigid-block chain puts
+    its largest stress (the same bond), and the model's stresses are the chain's (0.5%); a
+    slab of two layers of cells too, its joints' layer bonds carrying the bending as stretch
+    (a layer's ``F_n / t_c + 6 |M_c| / t_c^2`` is the slab's surface stress ``6 M / t^2``)."""
+    row = bb.edge_run(b, t, work=tmp_path, layers=layers)
+    peak = math.pi / (4 * bb.beta_of(bb.E0, t))
+    assert row["first_breaks"] >= 1
+    assert abs(row["first_break_x_min"] - peak) <= b and abs(row["first_break_x_max"] - peak) <= b
+    assert row["peak_model"] == row["peak_discrete"]
+    assert row["stress_model_over_discrete"] == pytest.approx(1.0, abs=5e-3)
