@@ -22,7 +22,18 @@ os.environ.setdefault("TI_ENABLE_PYBUF", "0")
 
 from .version import __version__
 
-_API = ("load_scene", "run", "extend", "open_run", "validated", "total_energy", "runaway", "Scene")
+_API = (
+    "load_scene",
+    "run",
+    "extend",
+    "open_run",
+    "validated",
+    "total_energy",
+    "runaway",
+    "fragment_table",
+    "capsized_area_fraction",
+    "Scene",
+)
 _ERRORS = ("SceneError", "RunError", "ArchError", "OutputError", "NumericalError", "ContactOverflow", "Interrupted")
 __all__ = [*_API, *_ERRORS, "__version__"]
 

@@ -23,6 +23,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from .analysis.fragments import capsized_area_fraction, fragment_table  # noqa: F401  (the package's API)
 from .energy import runaway, total_energy
 from .errors import ArchError, ContactOverflow, Interrupted, NumericalError, RunError
 from .io.hdf5 import OutputError

@@ -330,6 +330,7 @@ def api_page() -> str:
         'summary = mt.run(scene, "out.h5")      # initialises Taichi itself; same checks and errors as the CLI',
         'mt.extend("out.h5", 20000.0)           # the finished run goes on to t = 20000, as one run there',
         'tree = mt.open_run("out.h5")           # xarray.DataTree of the file (docs/output.md)',
+        'pieces = mt.fragment_table("out.h5")   # pandas.DataFrame: every piece of ice at every snapshot',
         "```",
         "",
         "Errors are the command line's, as exceptions with the same one-line messages: `SceneError` (a",
@@ -339,7 +340,7 @@ def api_page() -> str:
         "there is kept). A worked example: `examples/drag_sensitivity.py`.",
         "",
     ]
-    for name in ("load_scene", "run", "extend", "open_run", "validated"):
+    for name in ("load_scene", "run", "extend", "open_run", "validated", "fragment_table", "capsized_area_fraction"):
         fn = getattr(api, name)
         out += [f"## `melange_ti.{name}{inspect.signature(fn)}`", "", inspect.getdoc(fn), ""]
     out += ["## `RunSummary` (returned by `run`)", "", inspect.getdoc(RunSummary), "", "| field | meaning |", "| --- | --- |"]
