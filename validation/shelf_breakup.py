@@ -157,9 +157,7 @@ def plot() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    # sweep_after_edit.csv: runs made while the bonds' energy ledgers were being changed (their
-    # motion bit for bit the same, their residuals booked otherwise; docs/validation.md)
-    rows, scan = read("sweep.csv") + read("sweep_after_edit.csv"), read("scan.csv")
+    rows, scan = read("sweep.csv"), read("scan.csv")
     bonded = [r for r in rows if r["scene"] == "shelf_breakup"]
     paper = [r for r in rows if r["scene"] == "paper"]
     fig, axes = plt.subplots(2, 1, figsize=(7.5, 7.5), sharex=True, layout="constrained")
