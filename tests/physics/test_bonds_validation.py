@@ -109,3 +109,21 @@ def test_a_load_at_the_free_edge_breaks_the_slab_a_quarter_wave_in(b, t, layers,
     assert abs(row["first_break_x_min"] - peak) <= b and abs(row["first_break_x_max"] - peak) <= b
     assert row["peak_model"] == row["peak_discrete"]
     assert row["stress_model_over_discrete"] == pytest.approx(1.0, abs=5e-3)
+
+
+_ispec = importlib.util.spec_from_file_location("impact_stress", ROOT / "validation" / "impact_stress.py")
+im = importlib.util.module_from_spec(_ispec)
+_ispec.loader.exec_module(im)
+
+
+def test_a_head_on_impacts_peak_bond_stress_converges_in_the_step(tmp_path):
+    """Issue 50, item 5 (docs/validation.md, "Impacts into elastic ice"): a block striking a
+    bonded slab end-on; a rigid impulse is a velocity jump, which a bond answers as a spring
+    over its period, so the peak bond stress is the same at half the step (1%) and with twice
+    the discs (flat faces meet flat: 0.1%), and it is tension somewhere in the slab."""
+    coarse = im.one("head-on", 0.005, 28, tmp_path)
+    fine = im.one("head-on", 0.0025, 28, tmp_path)
+    discs = im.one("head-on", 0.0025, 56, tmp_path)
+    assert coarse["peak_tension"] > 0.05
+    assert fine["peak_tension"] == pytest.approx(coarse["peak_tension"], rel=0.01)
+    assert discs["peak_tension"] == pytest.approx(fine["peak_tension"], rel=1e-3)
