@@ -182,6 +182,14 @@ EFFECT = Effect(
             "in Pa; used with the bonds effect)",
         ),
         Key.nonnegative(
+            "strength_size",
+            0.0,
+            "w",
+            "l_ref of a weakest-link size effect: each bond's strengths times (l / l_ref)^(-1/m), l its face length "
+            "(the crack it would open), m = strength_modulus (0: off, every bond as strong whatever its size; used "
+            "with the bonds effect and a strength_modulus)",
+        ),
+        Key.nonnegative(
             "strength_modulus",
             0.0,
             "1",

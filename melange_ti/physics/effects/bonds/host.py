@@ -276,6 +276,8 @@ def material(scene, bergs, rows: np.ndarray) -> np.ndarray:
     if p.strength_modulus > 0 and strength.size:
         rng = np.random.default_rng((scene.time.seed, 31))  # its own stream: the tilts keep theirs
         strength = weibull_scale(p.strength_modulus) * rng.weibull(p.strength_modulus, strength.size)
+        if p.strength_size > 0:  # weakest link: a bond of face l holds what l_ref does, scaled
+            strength = strength * (length / p.strength_size) ** (-1.0 / p.strength_modulus)
     zeta = p.bond_damping
     out = rows.copy()
     out[on, Bond.KN], out[on, Bond.KS], out[on, Bond.KB] = kn, ks, kb
