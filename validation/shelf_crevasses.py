@@ -60,20 +60,31 @@ def main() -> None:
     p.add_argument("--depths", default="0,0.25,0.5,0.75,0.9")
     p.add_argument("--scaled", default="0.05,0.07,0.1,0.13,0.17,0.2,0.3,0.5", help="S (1 - d)^2 values")
     p.add_argument("--seeds", default="1,2,3,4")
+    p.add_argument("--add", action="store_true", help="keep the rows of crevasses.csv already there (a scan extended)")
     a = p.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
     depths = [float(v) for v in a.depths.split(",")]
     scaled = [float(v) for v in a.scaled.split(",")]
     seeds = [int(v) for v in a.seeds.split(",")]
     rows = []
+    old = a.out / "crevasses.csv"
+    if a.add and old.exists():
+        with open(old) as fh:
+            for r in csv.DictReader(fh):
+                r["crevasse_depth"], r["seed"] = float(r["crevasse_depth"]), int(r["seed"])
+                rows.append(r)
+    done = {(r["crevasse_depth"], str(r["strength"]), r["seed"]) for r in rows}
     work = a.out / "runs"
     work.mkdir(exist_ok=True)
     for seed in seeds:
-        rows.append(one(1.0, None, seed, work))  # cut through: the pre-cut row
+        if (1.0, "", seed) not in done:
+            rows.append(one(1.0, None, seed, work))  # cut through: the pre-cut row
         for d in depths:
             for s in scaled:
-                rows.append(one(d, s / (1 - d) ** 2, seed, work))
+                if (d, str(s / (1 - d) ** 2), seed) not in done:
+                    rows.append(one(d, s / (1 - d) ** 2, seed, work))
     work.rmdir()
+    rows.sort(key=lambda r: (r["seed"], r["crevasse_depth"], float(r["strength"] or 0)))
     with open(a.out / "crevasses.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
