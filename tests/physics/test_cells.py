@@ -236,3 +236,15 @@ def test_cells_from_the_command_line(tmp_path):
         overrides={"shelf.count": 4, "shelf.cells": "2,3", "physics.bond_modulus": 10.0, "time.dt": 0.002},
     )
     assert sc.shelf.cells == [2, 3] and sc.icebergs().count == 24
+
+
+def test_cells_that_meet_more_cells_than_bonds_allow_are_refused_naming_cells():
+    """Pieces of different thickness (a spread) cut into 4 layers: a layer meets two of its
+    neighbour's across the joint, more bonds than a body holds; refused in one line naming
+    ``shelf.cells``, not the effect."""
+    text = (
+        f"[scene]\neffects = {FULL}\n[physics]\nbond_modulus = 10.0\n[time]\ndt = 0.002\n"
+        "[shelf]\ncount = 5\nbonded = true\nbonded_wall = true\nthickness_std = 0.2\ncells = [1, 4]\n"
+    )
+    with pytest.raises(SceneError, match=r"^shelf.cells = \[1, 4\]: gives a cell of iceberg \d+ more than 4 bonds"):
+        loads(text)

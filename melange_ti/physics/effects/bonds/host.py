@@ -392,6 +392,18 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
         return bad
     table = build(scene, bergs, pair_list) if scene.start is None else _start_table(scene, bergs)
     _, crowded = slots(bergs.count, table)
+    if crowded is not None and bergs.parent is not None:  # cells whose layers do not meet across a joint
+        p = int(bergs.parent[crowded])
+        key, value = ("shelf.cells", scene.shelf.cells) if scene.shelf is not None else (f"iceberg[{p}].cells", None)
+        if value is None:
+            value = dict(scene.iceberg_table[p]).get("cells", [1, 1]) if scene.iceberg_table else [1, 1]
+        return (
+            key,
+            value,
+            f"gives a cell of iceberg {p} more than {MAX_BONDS} bonds: its layers meet more than one cell across a "
+            "joint (pieces of different thickness, or cells of different counts either side); use one layer (nz = 1) "
+            "or pieces of equal thickness and cells",
+        )
     if crowded is not None:
         # the [[bond]] table that gives the iceberg one bond too many (a shelf has at most 2)
         seen = 0
