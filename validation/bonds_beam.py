@@ -615,7 +615,7 @@ def edge_run(b, t=1.0, E=E0, P=0.05, length=7.0, work=None, settle_time=30.0, la
     _, sig_d, x_d = discrete_static(n, b, t, delta, E, loaded=0)
     peak = edge_peak(E, t)
     x_break = float(xb[broke].mean()) if broke.size else float("nan")
-    far = float(xb[broke][np.argmax(np.abs(xb[broke] - edge_peak(E, t)))]) if broke.size else float("nan")
+    far = float(xb[broke][np.argmax(np.abs(xb[broke] - peak))]) if broke.size else float("nan")
     return dict(
         width=b,
         thickness=t,
@@ -634,7 +634,7 @@ def edge_run(b, t=1.0, E=E0, P=0.05, length=7.0, work=None, settle_time=30.0, la
         first_break_x_max=float(xb[broke].max()) if broke.size else float("nan"),
         first_fragment_width=x_break + 0.5 * b,
         error_in_cells=(far - peak) / b,
-        stress_model_over_discrete=float(sig.max() / sig_d.max() * 1.0),
+        stress_model_over_discrete=float(sig.max() / sig_d.max()),
     )
 
 

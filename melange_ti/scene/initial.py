@@ -108,13 +108,10 @@ def partitioned(bergs: Icebergs, cells: list[tuple[int, int]]) -> Icebergs:
     parent, place = [], []
     for i, (nx, nz) in enumerate(cells):
         rect = bergs.outline is None or (bergs.corners[i] == 4 and _is_rectangle(bergs, i))
-        if rect:
-            w, h = float(bergs.width[i]), float(bergs.thickness[i])
-            bl, br, tr, tl = (np.array(p) for p in ((-w / 2, -h / 2), (w / 2, -h / 2), (w / 2, h / 2), (-w / 2, h / 2)))
-        else:
-            q = bergs.outline[i, :4]
-            k = int(np.argmax(np.roll(q[:, 1], -1) - q[:, 1]))  # the side that rises: counter-clockwise, the +u one
-            br, tr, tl, bl = (q[(k + j) % 4] for j in range(4))
+        w, h = float(bergs.width[i]), float(bergs.thickness[i])
+        q = rectangle(w, h) if rect else bergs.outline[i, :4]
+        k = int(np.argmax(np.roll(q[:, 1], -1) - q[:, 1]))  # the side that rises: counter-clockwise, the +u one
+        br, tr, tl, bl = (q[(k + j) % 4] for j in range(4))
         c, s_ = math.cos(bergs.theta[i]), math.sin(bergs.theta[i])
         for ix in range(nx):
             s0, s1 = ix / nx, (ix + 1) / nx

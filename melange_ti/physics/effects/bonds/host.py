@@ -185,11 +185,11 @@ def heights(bergs, piece: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The lowest and highest point of each piece (the icebergs, or the ones whose cells
     ``piece`` names) at t = 0."""
     low, high = np.full(int(piece.max()) + 1, np.inf), np.full(int(piece.max()) + 1, -np.inf)
-    _centre, _normal, tangent, half = faces(bergs, np.arange(bergs.count))
-    ends = _centre[..., 1] + np.abs(tangent[..., 1]) * np.where(half > 0, half, 0.0)
-    starts = _centre[..., 1] - np.abs(tangent[..., 1]) * np.where(half > 0, half, 0.0)
-    np.minimum.at(low, piece, np.where(half > 0, starts, np.inf).min(1))
-    np.maximum.at(high, piece, np.where(half > 0, ends, -np.inf).max(1))
+    centre, _, tangent, half = faces(bergs, np.arange(bergs.count))
+    face = half > 0  # a polygon's padding has none
+    rise = np.abs(tangent[..., 1]) * np.where(face, half, 0.0)
+    np.minimum.at(low, piece, np.where(face, centre[..., 1] - rise, np.inf).min(1))
+    np.maximum.at(high, piece, np.where(face, centre[..., 1] + rise, -np.inf).max(1))
     return low, high
 
 
@@ -394,9 +394,10 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
     _, crowded = slots(bergs.count, table)
     if crowded is not None and bergs.parent is not None:  # cells whose layers do not meet across a joint
         p = int(bergs.parent[crowded])
-        key, value = ("shelf.cells", scene.shelf.cells) if scene.shelf is not None else (f"iceberg[{p}].cells", None)
-        if value is None:
-            value = dict(scene.iceberg_table[p]).get("cells", [1, 1]) if scene.iceberg_table else [1, 1]
+        if scene.shelf is not None:
+            key, value = "shelf.cells", scene.shelf.cells
+        else:
+            key, value = f"iceberg[{p}].cells", scene.iceberg_table[p].get("cells", [1, 1])
         return (
             key,
             value,
