@@ -135,9 +135,11 @@ def test_the_wave_step_leaves_the_budget_of_a_jostling_melange_as_a_wave_step_ev
     to t = 200: contacts open and close within wave steps. An impulse at the i-th of a wave
     step's K steps changes the energy the step keeps by ``dt/2 (K - 2i) F_w . delta``
     (docs/model.md, Waves, "Energy"); booked, the budget at the default wave step (K = 10) is
-    within the promise and within twice its value with a wave step every time step (K = 1),
-    whose residual is the single step's. Unbooked beyond the opening step (before), it was
-    3.7 times that."""
+    within the promise and within 4 times its value with a wave step every time step (K = 1),
+    whose residual is the single step's. Measured: booked 2.7 times (1.26e-4 against 4.6e-5);
+    with the waves' ``offset_kick`` left out of the kick, 9.9 times (4.57e-4). (Before the
+    impulses' offset stopped reading the dampers' change of velocity, issue 50, both residuals
+    held that error too: 2.3e-4 and 1.5e-4, and the bound was twice.)"""
     share = {}
     for wave_dt in (0.0, 0.01):
         sc = loads(
@@ -156,7 +158,7 @@ def test_the_wave_step_leaves_the_budget_of_a_jostling_melange_as_a_wave_step_ev
         assert d["diagnostics"]["contacts"].sum() > 0
         share[wave_dt] = largest_share(d)
     assert share[0.0] <= RESIDUAL_PROMISED, share
-    assert share[0.0] <= 2 * share[0.01], share
+    assert share[0.0] <= 4 * share[0.01], share
 
 
 def test_every_form_writes_the_same_half_kick_and_wave_step_offset(tmp_path):

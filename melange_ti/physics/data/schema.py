@@ -367,9 +367,9 @@ ACCUMULATORS = Table(
             "ledger",
             E,
             "energy the impulses remove beyond their own dissipation because they act half a kick after the "
-            "time the energy is taken at, J dv_kick / 2 each, dv_kick the kick's change of the pair's normal "
-            "velocity less the bonds' (bond_offset_work books theirs), with waves plus (K - 2i) dt F_w / m at the "
-            "i-th step of a wave step (-> 0 as dt -> 0)",
+            "time the energy is taken at, J dv_kick / 2 each, dv_kick the forces' kick's change of the pair's "
+            "normal velocity (not the dampers') less the bonds' (bond_offset_work books theirs), with waves "
+            "plus (K - 2i) dt F_w / m at the i-th step of a wave step (-> 0 as dt -> 0)",
             "impulse_offset_work",
             budget=True,
             since=3,

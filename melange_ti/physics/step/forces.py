@@ -3,9 +3,10 @@
 Semi-implicit Euler, velocities first: ``v += dt F/m``, ``omega += dt tau/I`` from the
 forces of the effects named (:data:`..effects.FORCES`, summed in registry order), then each
 named damping term (:data:`..effects.DAMPERS`); after contacts, ``x += dt v`` and
-``theta += dt omega``. When the scene has contacts the kick keeps its change of the
-velocities (``Body.KICK_VX``, ``KICK_VZ``, ``KICK_OM``) for the impulses' energy booking,
-less the kick of the forces whose effect books that share itself (``own_offset``: the bonds).
+``theta += dt omega``. When the scene has contacts the kick keeps the forces' change of the
+velocities (``Body.KICK_VX``, ``KICK_VZ``, ``KICK_OM``; taken before the dampers, whose
+change is in their own ledgers) for the impulses' energy booking, less the kick of the forces
+whose effect books that share itself (``own_offset``: the bonds).
 The drift caches cos and sin of the new tilt (``Body.COS``, ``Body.SIN``), the one place a
 step evaluates trigonometric functions.
 """
@@ -89,11 +90,9 @@ def kick(fx: ti.template(), a: ti.template(), i):
     for e in ti.static(AFTER_KICK):
         if ti.static(e.on(fx)):
             ti.static(term(e, "after_kick"))(a, i)
-    for e in ti.static(DAMPERS):
-        if ti.static(e.on(fx)):
-            ti.static(term(e, "damp"))(a, i, m, inertia)
     if ti.static(fx.collisions or fx.wall):
-        # the kick's change of the velocities, for the impulses' energy booking (impulses.py)
+        # the forces' change of the velocities, for the impulses' energy booking (impulses.py):
+        # before the dampers, which book their own (docs/model.md, the impulses' half-kick offset)
         b[i, Body.KICK_VX] = b[i, Body.VX] - v0[0]
         b[i, Body.KICK_VZ] = b[i, Body.VZ] - v0[1]
         b[i, Body.KICK_OM] = b[i, Body.OM] - v0[2]
@@ -109,6 +108,9 @@ def kick(fx: ti.template(), a: ti.template(), i):
             b[i, Body.KICK_VX] -= dt * own[0] / m
             b[i, Body.KICK_VZ] -= dt * own[1] / m
             b[i, Body.KICK_OM] -= dt * own[2] / inertia
+    for e in ti.static(DAMPERS):
+        if ti.static(e.on(fx)):
+            ti.static(term(e, "damp"))(a, i, m, inertia)
 
 
 @ti.func
