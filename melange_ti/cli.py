@@ -141,6 +141,12 @@ def build_parser() -> argparse.ArgumentParser:
     rd.add_argument("--out", required=True, help="FILE.mp4 or a directory for PNG frames")
     rd.add_argument("--overwrite", action="store_true", help="replace an existing movie or frames")
     rd.add_argument("--discs", action="store_true", help="draw the collision discs")
+    rd.add_argument(
+        "--fragments",
+        action="store_true",
+        help="colour each body by its piece of ice (the bodies held together by intact bonds; one colour a piece) "
+        "instead of by its capsize angle; without the bonds effect each body is its own piece",
+    )
     rd.add_argument("--every", type=int, default=1, help="use every k-th snapshot (default 1)")
     rd.add_argument("--fps", type=int, default=20, help="frames per second of the movie (default 20)")
     rd.add_argument("--width-m", type=float, help="iceberg width in metres for the time label (default: the run's scene.width_m)")

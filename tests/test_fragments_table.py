@@ -76,18 +76,21 @@ def test_without_bonds_each_body_is_a_fragment_and_the_area_fraction_is_the_coun
     assert frac.iloc[-1] > 0
 
 
+# two blocks of 3 x 2 cells thrown at each other with weak bonds (they break), to t = 1
+BREAKING_PAIR = scene_text(
+    "x = 2.0\nz = -0.55\nvx = 0.6\ncells = [3, 2]\n",
+    dt=0.002,
+    duration=1.0,
+    physics="tensile_strength = 0.05\nshear_strength = 0.05\nbond_modulus = 100.0\n",
+    more="[[iceberg]]\nx = 3.3\nz = -0.55\nvx = -0.6\ncells = [3, 2]\n",
+    snapshot=0.1,
+)
+
+
 def test_broken_pieces_partition_the_ice(tmp_path):
     """Two blocks of 3 x 2 cells thrown at each other with weak bonds: they break into more
     pieces, whose areas and bodies add up to the ice's at every snapshot."""
-    text = scene_text(
-        "x = 2.0\nz = -0.55\nvx = 0.6\ncells = [3, 2]\n",
-        dt=0.002,
-        duration=1.0,
-        physics="tensile_strength = 0.05\nshear_strength = 0.05\nbond_modulus = 100.0\n",
-        more="[[iceberg]]\nx = 3.3\nz = -0.55\nvx = -0.6\ncells = [3, 2]\n",
-        snapshot=0.1,
-    )
-    mt.run(loads(text), tmp_path / "pair.h5")
+    mt.run(loads(BREAKING_PAIR), tmp_path / "pair.h5")
     table = mt.fragment_table(tmp_path / "pair.h5")
     sums = table.groupby("time")[["area", "bodies"]].sum()
     np.testing.assert_allclose(sums["area"], 2 * 1.4, rtol=1e-12)

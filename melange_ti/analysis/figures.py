@@ -18,17 +18,30 @@ Files written to ``--out`` (each figure as PNG and PDF):
 
 - ``fig2_snapshots``: icebergs with their discs near the leading edge at chosen times, one
   column per group (its first run; every group is drawn)
-- ``fig3_capsized_fraction``: fraction capsized (``phi >= pi/4``) vs time
+- ``fig3_capsized_fraction``: fraction capsized (``phi >= pi/4``) vs time: the bodies counted
+  (``capsized_fraction``); with the ``bonds`` effect also, dashed and labelled "by area of the
+  pieces of ice", the capsized pieces' share of the ice's area at the snapshots' times
+  (:func:`melange_ti.analysis.fragments.capsized_area_fraction`), so a rolled piece of many
+  cells counts by its area while the body count keeps its meaning
 - ``fig4_leading_edge``: leading edge vs time
 - ``fig5_capsized_by_position``: fraction capsized in bins of 10 widths, at several times
 - ``energy_budget``: released, kinetic, dissipated (drag, collisions, corrections), residual
 - ``impulse_rate_wall_force``: collision impulse rate (a seismic proxy) and force on the wall
 - ``capsized_fraction_by_thickness_std``: Fig. 3 grouped by ``shelf.thickness_std`` (only when
   the runs have several spreads)
-- ``fragments``: with the ``bonds`` effect, the sizes of the pieces of ice (icebergs held
+- ``fragments``: with the ``bonds`` effect, the sizes of the pieces of ice (bodies held
   together by intact bonds) at the end, as the complementary CDF on log-log axes with the
-  exponent fitted per run (:func:`fit_power_law`) and the 2-D fragmentation reference 3/2
-  (only when some run has bonds); ``fragments.csv``: per run, its pieces and exponent
+  exponent fitted per run and the 2-D fragmentation reference 3/2 (only when some run has
+  bonds); ``fragments.csv``: per run, its pieces and exponent. A piece's size is its number
+  of icebergs (a discrete law on 1..N, :func:`fit_power_law`) when every bonded run's bodies
+  are whole icebergs; when some run's bodies are cells (``cells = [nx, nz]``), whose number
+  says nothing of a piece's size across icebergs cut differently, every run's pieces are
+  measured by their area in w^2 (the fragment table's ``area``; a continuous law from the
+  run's smallest body to its whole ice, :func:`fit_power_law_area`), area and not width
+  (``length``) because the 2-D fragmentation exponent is one of mass, and the icebergs
+  counted of equal blocks are their area in block areas. ``fragments.csv`` then has the
+  columns :data:`AREA_COLUMNS` (``bodies``, ``area``, ``largest_area`` in place of
+  ``icebergs`` and ``largest``)
 - ``summary.csv``: per group, runs, times of 50% / 90% capsized, final leading edge, energy
 """
 
@@ -57,6 +70,7 @@ from ..geometry import body_outlines, world_outlines  # noqa: E402
 from ..io.hdf5 import OutputError, is_partial, read_diagnostics, read_run  # noqa: E402
 from ..scene import SceneError, stored_scene  # noqa: E402
 from . import stats  # noqa: E402
+from .fragments import body_moments, capsized_area_fraction, celled, check_labels  # noqa: E402
 from .render import BOND, BondFaces, IcebergArtist, draw_sea, phi_colorbar, wave_surface  # noqa: E402
 from .runs import Group, Run, check_times, default_times, last_snapshot_time, load_run, make_groups, parse_times, snap_times
 
@@ -150,32 +164,62 @@ def _band(ax, ens: stats.Ensemble, color, label: str, **kw) -> None:
         ax.fill_between(ens.time, ens.mean - ens.std, ens.mean + ens.std, color=color, alpha=0.22, lw=0)
 
 
-def _label(group: Group) -> str:
-    """The group's label with its run count, wrapped: a run that changed many keys (a bonded
-    shelf's) had a legend wider than the figure, which collapsed the axes."""
+def _label(group: Group, what: str = "") -> str:
+    """The group's label with its run count (and ``what``, the line's measure), wrapped: a run
+    that changed many keys (a bonded shelf's) had a legend wider than the figure, which
+    collapsed the axes."""
     n = len(group.runs)
-    return textwrap.fill(f"{group.label} ({n} run{'s' if n != 1 else ''})", LABEL_WIDTH)
+    return textwrap.fill(f"{group.label} ({n} run{'s' if n != 1 else ''}){what}", LABEL_WIDTH)
 
 
 def _tmax(groups: Sequence[Group]) -> float:
     return max(float(g.series("capsized_fraction").time[-1]) for g in groups)
 
 
+BY_BODIES = ": bodies counted"  # the body count's line, where a group has the line by area too
+BY_AREA = ": by area of the pieces of ice"  # the capsized pieces' share of the ice's area (dashed)
+
+
+def capsized_area_series(run: Run) -> stats.Series:
+    """``(t, fraction)`` at the run's snapshots: the capsized pieces' share of the ice's area
+    (:func:`melange_ti.analysis.fragments.capsized_area_fraction` of its fragment table)."""
+    frac = capsized_area_fraction(run.fragment_table())
+    return frac.index.to_numpy(dtype=float), frac.to_numpy(dtype=float)
+
+
+def capsized_area(group: Group) -> stats.Ensemble | None:
+    """The group's capsized fraction by area (mean and s.d. over its runs, on the snapshots'
+    times of the run that ends first); ``None`` unless every run has fragments (bonds)."""
+    if not all(has_fragments(r) for r in group.runs):
+        return None
+    return stats.ensemble([capsized_area_series(r) for r in group.runs])
+
+
 def fig_capsized_fraction(groups: Sequence[Group], units: Units, title: str | None = None):
-    """Paper Fig. 3: the fraction capsized vs time, mean and one standard deviation."""
+    """Paper Fig. 3: the fraction capsized vs time, mean and one standard deviation. For a
+    group with fragments (the bonds effect) a dashed line beside it: the capsized pieces'
+    share of the ice's area, so a rolled piece of many cells counts by its area; the solid
+    line stays the body count (``capsized_fraction``) and is labelled so."""
     fig, ax = plt.subplots(figsize=(7.0, 4.6), layout="constrained")
-    for g, color in zip(groups, _colors(len(groups)), strict=True):
+    areas = [capsized_area(g) for g in groups]
+    for g, color, area in zip(groups, _colors(len(groups)), areas, strict=True):
         ens = g.series("capsized_fraction")
-        _band(ax, ens, color, _label(g))
+        _band(ax, ens, color, _label(g, BY_BODIES if area is not None else ""))
         for level, t in stats.capsize_times(ens.time, ens.mean).items():
             if math.isfinite(t):
                 ax.plot([t], [level], marker="o", ms=4, color=color)
+        if area is not None:
+            _band(ax, area, color, _label(g, BY_AREA), ls="--")
     ax.set_ylabel("fraction capsized (φ ≥ 45°)")
     ax.set_ylim(-0.02, 1.02)
     ax.grid(alpha=0.3)
     time_axes(ax, units, _tmax(groups))
     ax.legend(fontsize=8, loc="lower right")
-    ax.set_title(title or "Capsized fraction (mean ± 1 s.d.; dots: 50% and 90%)", fontsize=10)
+    pieces = any(a is not None for a in areas)
+    title = title or "Capsized fraction (mean ± 1 s.d.; dots: 50% and 90%)"
+    if pieces:
+        title += "\nsolid: the bodies counted; dashed: the capsized pieces of ice (bodies held by intact bonds) by area"
+    ax.set_title(title, fontsize=9 if pieces else 10)
     return fig
 
 
@@ -448,17 +492,23 @@ def ccdf(sizes) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class PowerLaw:
-    """A discrete power law ``n(s) ~ s^-tau`` for ``s_min <= s <= s_max`` fitted to ``n``
-    sizes; ``error``: the fit's standard error ``1 / sqrt(n Var(ln s))`` (Fisher)."""
+    """A power law ``n(s) ~ s^-tau`` for ``s_min <= s <= s_max`` fitted to ``n`` sizes:
+    discrete (on the integers; icebergs counted) or ``continuous`` (areas); ``error``: the
+    fit's standard error ``1 / sqrt(n Var(ln s))`` (Fisher)."""
 
     tau: float
     error: float
     n: int
-    s_min: int
-    s_max: int
+    s_min: float
+    s_max: float
+    continuous: bool = False
 
     def ccdf(self, s) -> np.ndarray:
         """The model's ``P(S >= s)`` at sizes ``s``."""
+        if self.continuous:
+            span = math.log(self.s_max / self.s_min)
+            y = np.clip(np.log(np.asarray(s, dtype=float) / self.s_min), 0.0, span)
+            return _log_tail(self.tau - 1.0, y, span)
         support = np.arange(self.s_min, self.s_max + 1)
         p = _weights(self.tau, np.log(support))
         tail = np.cumsum(p[::-1])[::-1]
@@ -470,6 +520,28 @@ def _weights(tau: float, log_s: np.ndarray) -> np.ndarray:
     x = -tau * log_s
     w = np.exp(x - x.max())
     return w / w.sum()
+
+
+def _log_tail(lam: float, y: np.ndarray, span: float) -> np.ndarray:
+    """``P(Y >= y)`` for ``Y = ln(s / s_min)`` of the continuous law (density ``~ exp(-lam y)``
+    on ``[0, span]``, ``lam = tau - 1``), without overflow at either sign of ``lam``."""
+    if abs(lam * span) < 1e-9:
+        return (span - y) / span
+    if lam > 0:
+        return np.exp(-lam * y) * -np.expm1(-lam * (span - y)) / -np.expm1(-lam * span)
+    return np.expm1(lam * (span - y)) / np.expm1(lam * span)
+
+
+def _log_moments(u: float) -> tuple[float, float]:
+    """Mean and variance of ``Y / span`` for the law of :func:`_log_tail` with ``u = lam span``:
+    a truncated exponential on [0, 1] (series near ``u = 0``, where the closed forms cancel)."""
+    if abs(u) < 1e-3:
+        return 0.5 - u / 12.0, 1.0 / 12.0 - u * u / 720.0
+    if u > 0:
+        e = math.exp(-u)
+        return 1.0 / u - e / -math.expm1(-u), 1.0 / u**2 - e / math.expm1(-u) ** 2
+    e = math.exp(u)
+    return 1.0 / u - 1.0 / math.expm1(u), 1.0 / u**2 - e / math.expm1(u) ** 2
 
 
 def fit_power_law(sizes, s_max: int, s_min: int = 1) -> PowerLaw:
@@ -506,6 +578,34 @@ def fit_power_law(sizes, s_max: int, s_min: int = 1) -> PowerLaw:
     return PowerLaw(tau, 1.0 / math.sqrt(n * var) if var > 0 else math.nan, n, s_min, s_max)
 
 
+def fit_power_law_area(sizes, s_min: float, s_max: float) -> PowerLaw:
+    """Maximum likelihood exponent ``tau`` of a continuous power law ``p(s) ~ s^-tau`` on
+    ``[s_min, s_max]`` (areas: ``s_min`` the run's smallest body, ``s_max`` its ice) from the
+    sizes in that range. As for :func:`fit_power_law` the maximum is where the model's mean
+    of ``ln s`` equals the sample's (``ln s`` is then a truncated exponential: its mean falls
+    with ``tau``), found by bisection; NaN where no power law is defined: fewer than two
+    pieces, or all at an end of the range (every piece a smallest body: tau -> infinity)."""
+    sizes = np.asarray(sizes, dtype=float)
+    sizes = sizes[(sizes >= s_min * (1 - 1e-9)) & (sizes <= s_max * (1 + 1e-9))]
+    n = len(sizes)
+    nan = PowerLaw(math.nan, math.nan, n, s_min, s_max, continuous=True)
+    span = math.log(s_max / s_min) if s_min > 0 and s_max > s_min else 0.0
+    if n < 2 or span <= 0:
+        return nan
+    target = float(np.mean(np.clip(np.log(sizes / s_min), 0.0, span))) / span
+    lo, hi = -1e6, 1e6  # u = (tau - 1) ln(s_max / s_min): the mean of ln(s / s_min) / span falls from 1 to 0
+    if not _log_moments(hi)[0] < target < _log_moments(lo)[0]:
+        return nan
+    for _ in range(400):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if _log_moments(mid)[0] > target else (lo, mid)
+        if hi - lo < 1e-12 * max(1.0, abs(mid)):
+            break
+    u = 0.5 * (lo + hi)
+    var = _log_moments(u)[1] * span**2  # Var(ln s), the Fisher information per piece
+    return PowerLaw(1.0 + u / span, 1.0 / math.sqrt(n * var) if var > 0 else math.nan, n, s_min, s_max, continuous=True)
+
+
 def has_fragments(run: Run) -> bool:
     """A run with the bonds effect: its file holds each snapshot's fragment labels."""
     return "fragment" in run.snaps
@@ -514,29 +614,38 @@ def has_fragments(run: Run) -> bool:
 def check_fragments(run: Run) -> None:
     """Every snapshot's fragment labels are iceberg indices (a corrupted file is one line,
     not a wrong figure); nothing to check without the bonds effect."""
-    if not has_fragments(run):
-        return
-    labels = np.asarray(run.snaps["fragment"])
-    n = len(run.data["icebergs"]["width"])
-    bad = (labels < 0) | (labels >= n) if labels.dtype.kind in "iu" else np.ones(labels.shape, bool)
-    if labels.ndim != 2 or labels.shape[1] != n or bad.any():
-        k = int(np.argmax(bad.any(axis=-1))) if labels.ndim == 2 and bad.any() else 0
-        raise OutputError(f"{run.path}: /snapshots/fragment (snapshot {k}) holds labels that are not iceberg indices 0..{n - 1}")
+    if has_fragments(run):
+        check_labels(run.path, run.snaps["fragment"], len(run.data["icebergs"]["width"]))
+
+
+def by_area(runs: Sequence[Run]) -> bool:
+    """Whether the fragments figure measures a piece by its area: when some bonded run's
+    bodies are cells (:func:`melange_ti.analysis.fragments.celled`), whose number says
+    nothing of a piece's size; otherwise, as before cells, by its icebergs."""
+    return any(has_fragments(r) and celled(r.scene) for r in runs)
 
 
 @dataclass
 class RunFragments:
     run: Run
     time: float
-    sizes: np.ndarray
+    sizes: np.ndarray  # each piece's icebergs, or its area in w^2 (fit.continuous)
     fit: PowerLaw
 
 
-def run_fragments(run: Run, t: float) -> RunFragments:
-    """The pieces of ``run`` at its snapshot nearest to ``t`` and their fitted exponent."""
+def run_fragments(run: Run, t: float, area: bool = False) -> RunFragments:
+    """The pieces of ``run`` at its snapshot nearest to ``t`` and their fitted exponent:
+    sized by their icebergs, or with ``area`` by their area in w^2 (the fragment table's, a
+    continuous law from the run's smallest body to its whole ice)."""
     k = stats.nearest_index(run.snaps["time"], t)
-    sizes = fragment_sizes(run.snaps["fragment"][k])
-    return RunFragments(run, float(run.snaps["time"][k]), sizes, fit_power_law(sizes, s_max=int(sizes.sum())))
+    time = float(run.snaps["time"][k])
+    if not area:
+        sizes = fragment_sizes(run.snaps["fragment"][k])
+        return RunFragments(run, time, sizes, fit_power_law(sizes, s_max=int(sizes.sum())))
+    table = run.fragment_table()
+    sizes = np.sort(table.loc[table["time"] == time, "area"].to_numpy(dtype=float))
+    smallest = float(body_moments(run.data["icebergs"])[0].min())
+    return RunFragments(run, time, sizes, fit_power_law_area(sizes, s_min=smallest, s_max=float(sizes.sum())))
 
 
 def fragments_time(runs: Sequence[Run]) -> float:
@@ -549,38 +658,45 @@ def exponent_text(fits: Sequence[PowerLaw]) -> str:
     taus = np.array([f.tau for f in fits])
     ok = np.isfinite(taus)
     if not ok.any():
-        return "no exponent (every piece one iceberg, or one piece)"
+        smallest = "one body" if fits and fits[0].continuous else "one iceberg"
+        return f"no exponent (every piece {smallest}, or one piece)"
     if len(fits) == 1:
         return f"τ = {taus[0]:.2f} ± {fits[0].error:.2f} (standard error of the fit)"
     part = "" if ok.all() else f" of {ok.sum()} runs fitted"
     return f"τ = {taus[ok].mean():.2f} ± {taus[ok].std():.2f} (s.d. over {ok.sum()} seeds{part})"
 
 
-def fig_fragments(groups: Sequence[Group], t: float):
+def fig_fragments(groups: Sequence[Group], t: float, area: bool | None = None):
     """The sizes of the pieces of ice at time ``t`` (each run's nearest snapshot): the
     complementary CDF per run on log-log axes, the power law fitted per run (dashed: at the
-    group's mean exponent) and the 2-D fragmentation reference ``tau = 3/2`` (slope -1/2)."""
+    group's mean exponent) and the 2-D fragmentation reference ``tau = 3/2`` (slope -1/2).
+    A piece's size: its icebergs, or with ``area`` (default: :func:`by_area` of the runs,
+    some of them cells) its area in w^2."""
+    if area is None:
+        area = by_area([r for g in groups for r in g.runs])
     fig, ax = plt.subplots(figsize=(7.5, 5.6), layout="constrained")
     shown = [g for g in groups if any(has_fragments(r) for r in g.runs)]
-    s_top, p_low = 1, 1.0
+    s_top, p_low, s_low = 1.0, 1.0, math.inf
     for g, color in zip(shown, _colors(len(shown)), strict=True):
-        pieces = [run_fragments(r, t) for r in g.runs if has_fragments(r)]
+        pieces = [run_fragments(r, t, area) for r in g.runs if has_fragments(r)]
         for j, p in enumerate(pieces):
             s, prob = ccdf(p.sizes)
             label = textwrap.fill(f"{_label(g)}: {exponent_text([q.fit for q in pieces])}", 110) if j == 0 else None
             # P(S >= s) holds its value at s_k on (s_(k-1), s_k]: steps drawn before each point
             ax.plot(s, prob, color=color, marker="o", ms=3, lw=0.9, alpha=0.7, drawstyle="steps-pre", label=label)
             s_top, p_low = max(s_top, p.fit.s_max), min(p_low, float(prob[-1]))
+            s_low = min(s_low, p.fit.s_min)
         taus = [p.fit.tau for p in pieces if math.isfinite(p.fit.tau)]
         if taus:
-            s_max = max(p.fit.s_max for p in pieces)
-            model = PowerLaw(float(np.mean(taus)), math.nan, 0, 1, s_max)
-            grid = np.unique(np.round(np.geomspace(1, s_max, 200)).astype(int))
+            s_min, s_max = min(p.fit.s_min for p in pieces), max(p.fit.s_max for p in pieces)
+            model = PowerLaw(float(np.mean(taus)), math.nan, 0, s_min, s_max, continuous=area)
+            grid = np.geomspace(s_min, s_max, 200) if area else np.unique(np.round(np.geomspace(1, s_max, 200)).astype(int))
             ax.plot(grid, model.ccdf(grid), color=color, ls="--", lw=1.0)
-    grid = np.geomspace(1, max(s_top, 2), 50)
+    s_low = s_low if area and math.isfinite(s_low) else 1.0  # counted: from one iceberg
+    grid = np.geomspace(s_low, max(s_top, 2 * s_low), 50)
     ax.plot(
         grid,
-        grid ** (1.0 - FRAGMENTATION_TAU),
+        (grid / s_low) ** (1.0 - FRAGMENTATION_TAU),
         color="k",
         ls=":",
         lw=1.2,
@@ -588,40 +704,57 @@ def fig_fragments(groups: Sequence[Group], t: float):
     )
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlim(0.8, 1.25 * max(s_top, 2))
+    ax.set_xlim(0.8 * s_low, 1.25 * max(s_top, 2 * s_low))
     ax.set_ylim(0.4 * p_low, 1.4)  # the data's range (the fitted law falls to 0 at the run's size)
-    ax.set_xlabel("piece size s (icebergs held together by intact bonds)")
-    ax.set_ylabel("fraction of pieces at least s icebergs in size")
     ax.grid(alpha=0.3, which="both")
     fig.legend(fontsize=7, loc="outside lower center")
-    ax.set_title(
-        f"Pieces of ice at t = {t:g}: the fraction at least s icebergs in size, one curve per run\n"
-        "τ: the number of pieces of size s falls as s^−τ (1 ≤ s ≤ the run's icebergs), fitted to each run by "
-        "maximum likelihood;\ndashed: that law at the group's mean τ",
-        fontsize=8,
-    )
+    if area:
+        ax.set_xlabel("piece size s: its area (w²; the bodies, cells or icebergs, held together by intact bonds)")
+        ax.set_ylabel("fraction of pieces at least s in area")
+        title = (
+            f"Pieces of ice at t = {t:g}: the fraction at least s in area, one curve per run\n"
+            "τ: the number of pieces of area s falls as s^−τ (s_min ≤ s ≤ the run's ice, s_min its smallest body),\n"
+            "fitted to each run by maximum likelihood; dashed: that law at the group's mean τ"
+        )
+    else:
+        ax.set_xlabel("piece size s (icebergs held together by intact bonds)")
+        ax.set_ylabel("fraction of pieces at least s icebergs in size")
+        title = (
+            f"Pieces of ice at t = {t:g}: the fraction at least s icebergs in size, one curve per run\n"
+            "τ: the number of pieces of size s falls as s^−τ (1 ≤ s ≤ the run's icebergs), fitted to each run by "
+            "maximum likelihood;\ndashed: that law at the group's mean τ"
+        )
+    ax.set_title(title, fontsize=8)
     return fig
 
 
 FRAGMENT_COLUMNS = ("group", "seed", "path", "t", "icebergs", "pieces", "largest", "tau", "tau_error")
+# pieces measured by area (runs of cells): the bodies (cells, or icebergs) and areas in w^2
+AREA_COLUMNS = ("group", "seed", "path", "t", "bodies", "area", "pieces", "largest_area", "tau", "tau_error")
 
 
-def fragment_rows(groups: Sequence[Group], t: float) -> list[dict]:
-    """``fragments.csv``: per bonded run, its pieces at ``t`` and the fitted exponent."""
+def fragment_rows(groups: Sequence[Group], t: float, area: bool | None = None) -> list[dict]:
+    """``fragments.csv``: per bonded run, its pieces at ``t`` and the fitted exponent; with
+    ``area`` (default: :func:`by_area`) the columns :data:`AREA_COLUMNS`."""
+    if area is None:
+        area = by_area([r for g in groups for r in g.runs])
     rows = []
     for g in groups:
         for r in g.runs:
             if has_fragments(r):
-                p = run_fragments(r, t)
+                p = run_fragments(r, t, area)
+                if area:
+                    size = {"bodies": len(r.data["icebergs"]["width"]), "area": float(p.sizes.sum())}
+                    size |= {"pieces": len(p.sizes), "largest_area": float(p.sizes.max())}
+                else:
+                    size = {"icebergs": int(p.sizes.sum()), "pieces": len(p.sizes), "largest": int(p.sizes.max())}
                 rows.append(
                     {
                         "group": g.label,
                         "seed": r.seed,
                         "path": str(r.path),
                         "t": p.time,
-                        "icebergs": int(p.sizes.sum()),
-                        "pieces": len(p.sizes),
-                        "largest": int(p.sizes.max()),
+                        **size,
                         "tau": p.fit.tau,
                         "tau_error": p.fit.error,
                     }
@@ -787,8 +920,8 @@ def _plot(runs: list[Run], out: Path, units: Units, times, wanted: set[str], wri
             make_groups(runs, keys=["shelf.thickness_std"]), units, title=title
         )
     if any(has_fragments(r) for r in runs):  # the bonds effect
-        t_frag = fragments_time(runs)
-        makers["fragments"] = lambda: fig_fragments(groups, t_frag)
+        t_frag, area = fragments_time(runs), by_area(runs)
+        makers["fragments"] = lambda: fig_fragments(groups, t_frag, area)
     for name, make in makers.items():
         if name in wanted:
             save(make(), out, name, written)
@@ -796,7 +929,8 @@ def _plot(runs: list[Run], out: Path, units: Units, times, wanted: set[str], wri
     write_summary(summary_rows(groups), out / "summary.csv")
     if "fragments" in makers and "fragments" in wanted:
         written.append(out / "fragments.csv")
-        write_summary(fragment_rows(groups, t_frag), out / "fragments.csv", FRAGMENT_COLUMNS)
+        columns = AREA_COLUMNS if area else FRAGMENT_COLUMNS
+        write_summary(fragment_rows(groups, t_frag, area), out / "fragments.csv", columns)
 
 
 def run_files(args: Sequence[str | Path]) -> list[Path]:
@@ -856,8 +990,9 @@ def main(args) -> int:
             frags = list(csv.DictReader(fh))
         for group in dict.fromkeys(row["group"] for row in frags):
             mine = [row for row in frags if row["group"] == group]
-            fits = [
-                PowerLaw(float(row["tau"]), float(row["tau_error"]), int(row["pieces"]), 1, int(row["icebergs"])) for row in mine
+            area = "largest_area" in mine[0]  # pieces measured by area (runs of cells)
+            fits = [  # what exponent_text says: tau and its error
+                PowerLaw(float(row["tau"]), float(row["tau_error"]), int(row["pieces"]), 1, 1, continuous=area) for row in mine
             ]
             pieces = ", ".join(row["pieces"] for row in mine)
             print(f"{group}: pieces of ice at t = {mine[0]['t']}: {pieces}; {exponent_text(fits)}, 2-D fragmentation 3/2")

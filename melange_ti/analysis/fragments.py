@@ -15,7 +15,9 @@ vertical (a single body: :func:`melange_ti.diagnostics.capsized`, the rule of
 :func:`capsized_area_fraction` sums the capsized fragments' areas over the ice's.
 
 Read from the run file alone (numpy and pandas; xarray's dependency): ``table`` holds one
-row per fragment per snapshot.
+row per fragment per snapshot. :func:`celled` says whether a run's bodies are cells (then
+``melange-ti plot`` measures a piece by its area, not by its bodies), :func:`check_labels`
+refuses labels that are not body indices in one line (``plot`` and ``render --fragments``).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import numpy as np
 
 from .. import diagnostics
 from ..geometry import body_outlines, polygon_moments
-from ..io.hdf5 import read_run
+from ..io.hdf5 import OutputError, read_run
 
 COLUMNS = (
     "time",
@@ -118,12 +120,16 @@ def fragment_table(path: str | Path, times=None):
     """One row per fragment per snapshot of the run file ``path`` (``times``: only the
     snapshots nearest these), as a :class:`pandas.DataFrame` of :data:`COLUMNS` (lengths in w,
     areas in w^2, angles in rad)."""
+    return table_of(read_run(str(path)), times)
+
+
+def table_of(data: dict, times=None):
+    """:func:`fragment_table` of a run file already read (:func:`melange_ti.io.hdf5.read_run`)."""
     import pandas as pd
     import tomllib
 
     from ..io.hdf5 import SCENE_ATTR
 
-    data = read_run(str(path))
     snaps, bergs = data["snapshots"], data["icebergs"]
     scene = tomllib.loads(str(data["attrs"][SCENE_ATTR]))
     r = float(scene.get("physics", {}).get("density_ratio", 0.8946))
@@ -146,3 +152,41 @@ def capsized_area_fraction(table):
     many cells counts by its area, beside the body count ``capsized_fraction``."""
     capsized = table["area"].where(table["capsized"], 0.0)
     return capsized.groupby(table["time"]).sum() / table["area"].groupby(table["time"]).sum()
+
+
+def check_labels(path, labels, n: int, flag: str = "") -> None:
+    """One-line :class:`OutputError` (after ``flag``, the option that reads them) if the
+    fragment labels ``labels`` (snapshots, bodies) are not indices of the run's ``n`` bodies:
+    a corrupted file is refused, not drawn wrong."""
+    labels = np.asarray(labels)
+    bad = (labels < 0) | (labels >= n) if labels.dtype.kind in "iu" else np.ones(labels.shape, bool)
+    if labels.ndim != 2 or labels.shape[1] != n or bad.any():
+        k = int(np.argmax(bad.any(axis=-1))) if labels.ndim == 2 and bad.any() else 0
+        raise OutputError(
+            f"{flag}{path}: /snapshots/fragment (snapshot {k}) holds labels that are not iceberg indices 0..{n - 1}"
+        )
+
+
+STARTS = 32  # runs begun from runs' snapshots followed back at most (files begun from each other in a circle: cut there)
+
+
+def celled(scene, depth: int = 0) -> bool:
+    """Whether a run's bodies are cells of icebergs: ``cells`` other than ``[1, 1]`` on its
+    ``[shelf]`` or on an ``[[iceberg]]``. A run begun from another's snapshot (``[start]``)
+    is celled if that run was (its file read, where it still is; if it is gone, its bodies
+    count as whole icebergs)."""
+    from ..io.hdf5 import run_status
+    from ..scene import SceneError, loads
+    from ..scene.core import ONE_CELL
+
+    if scene.shelf is not None:
+        return list(scene.shelf.cells) != ONE_CELL
+    if scene.iceberg_table is not None:
+        return any(list(b.get("cells", ONE_CELL)) != ONE_CELL for b in scene.iceberg_table)
+    status = run_status(scene.start.file) if scene.start is not None and depth < STARTS else None
+    if status is None or status[0] is None:
+        return False
+    try:
+        return celled(loads(status[0], geometry=False), depth + 1)
+    except SceneError:
+        return False

@@ -6,6 +6,12 @@ Each iceberg is drawn as its rectangle coloured by the capsize angle ``phi`` in
 effect, the moving surface ``water_level + eta`` over the wave grid) and the wall. With the
 ``bonds`` effect each bond intact at the frame's time is drawn as a cyan segment along the
 face it glues (:class:`BondFaces`); a broken one is not drawn.
+With ``--fragments`` each body is coloured by its piece of ice instead (``/snapshots/fragment``:
+the bodies, cells or icebergs, held together by intact bonds): the bodies of one piece share a
+colour, drawn from a qualitative palette by the piece's label (:func:`fragment_colors`: the
+same piece keeps its colour from frame to frame), and the capsize angle's colour bar is left
+out. A run without the bonds effect has no bonds, so each body is its own piece and gets its
+own colour (as ``fragment_table`` and the ``fragments`` count have it), not a refusal.
 The movie is encoded by the ``ffmpeg`` binary shipped in the ``imageio-ffmpeg`` wheel.
 """
 
@@ -30,6 +36,7 @@ from ..errors import RunError  # noqa: E402
 from ..geometry import body_outlines, disc_local, world_outlines  # noqa: E402
 from ..io.hdf5 import OutputError, read_run  # noqa: E402
 from ..scene import Scene, SceneError, stored_scene  # noqa: E402
+from .fragments import check_labels  # noqa: E402
 from .runs import DRAWN, check_finite  # noqa: E402
 
 G_SI = 9.81  # m s^-2
@@ -39,6 +46,9 @@ WATER = "#cfe3f3"
 WATER_LINE = "#1f5f99"
 WALL = "0.35"
 BOND = "#19d3f3"  # cyan: apart from the capsize angle's colours
+# the pieces' colours (--fragments): tab20's, less its light blue (the sea's) and its cyans (the bonds')
+PIECE_COLOURS = np.array([plt.get_cmap("tab20")(i) for i in range(20) if i not in (1, 18, 19)])
+GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 ZOOM_SPAN = 60.0  # widths shown around the leading edge when the whole run is too wide
 WIDE = 80.0  # widths beyond which a frame gets a leading-edge zoom panel
 
@@ -118,12 +128,32 @@ class BondFaces:
         return out
 
 
+def fragment_labels(run: dict, k: int) -> np.ndarray:
+    """Snapshot ``k``'s piece of each body (``/snapshots/fragment``); without the bonds
+    effect each body is its own piece (its index)."""
+    labels = run["snapshots"].get("fragment")
+    return np.arange(len(run["icebergs"]["width"])) if labels is None else np.asarray(labels[k])
+
+
+def fragment_colors(labels) -> np.ndarray:
+    """Each body's face colour (N, 4 RGBA) by its piece's ``labels``: the palette
+    :data:`PIECE_COLOURS` cycled by label, colour ``floor(n frac(label g))`` of its ``n``
+    (``g`` the golden ratio's fractional part: pieces whose labels differ by a few bodies,
+    neighbours on a shelf, get distinct colours, and a piece's colour depends on its label
+    alone, so it holds from frame to frame). Bodies of one piece share its colour; two pieces
+    share one only by chance (about one in ``n`` for labels far apart)."""
+    labels = np.asarray(labels, dtype=np.int64)
+    index = np.floor(np.mod(labels * GOLDEN, 1.0) * len(PIECE_COLOURS)).astype(np.int64)
+    return PIECE_COLOURS[np.minimum(index, len(PIECE_COLOURS) - 1)]
+
+
 # ---------------------------------------------------------------------------------------
 # Drawing
 
 
 class IcebergArtist:
-    """Rectangles (coloured by capsize angle) and optional disc outlines on one axes.
+    """Rectangles (coloured by capsize angle, or with ``pieces`` by their piece of ice:
+    :func:`fragment_colors`) and optional disc outlines on one axes.
 
     Created once and updated per frame with :meth:`update`, so a movie does not rebuild its
     artists. With ``bonds`` (:class:`BondFaces`), the bonds intact at the time given to
@@ -142,8 +172,10 @@ class IcebergArtist:
         bond_width: float = 1.8,
         outline: np.ndarray | None = None,
         axis: np.ndarray | None = None,
+        pieces: bool = False,
     ):
         self.ax = ax
+        self.pieces = pieces
         self.width = np.asarray(width, dtype=float)
         self.thickness = np.asarray(thickness, dtype=float)
         # every outline's body-frame corners (geometry.body_outlines: a run's /icebergs/corner_u,
@@ -156,13 +188,14 @@ class IcebergArtist:
         n = self.width.shape[0]
         self.rects = PolyCollection(
             np.zeros((n, self.body.shape[1], 2)),
-            cmap=cmap,
-            norm=PHI_NORM,
+            cmap=None if pieces else cmap,
+            norm=None if pieces else PHI_NORM,
             edgecolors="k",
             linewidths=edge_width,
             zorder=3,
         )
-        self.rects.set_array(np.zeros(n))
+        if not pieces:
+            self.rects.set_array(np.zeros(n))
         ax.add_collection(self.rects)
         self.circles = None
         if self.discs:
@@ -188,12 +221,16 @@ class IcebergArtist:
             self.bond_lines = LineCollection([], colors=BOND, linewidths=bond_width, capstyle="butt", zorder=5.5)
             ax.add_collection(self.bond_lines)
 
-    def update(self, x, z, theta, t: float | None = None) -> None:
-        """Draw the icebergs at ``x, z, theta``, and (with bonds) the bonds intact at ``t``."""
+    def update(self, x, z, theta, t: float | None = None, labels=None) -> None:
+        """Draw the icebergs at ``x, z, theta``, and (with bonds) the bonds intact at ``t``;
+        with ``pieces``, coloured by their pieces' ``labels`` (:func:`fragment_labels`)."""
         self.rects.set_verts(world_outlines(x, z, theta, self.body))
         if self.bond_lines is not None:
             self.bond_lines.set_segments(self.bonds.segments(x, z, theta, t))
-        self.rects.set_array(diag.capsize_angle(np.asarray(theta, dtype=float), self.axis))
+        if self.pieces:
+            self.rects.set_facecolor(fragment_colors(labels))
+        else:
+            self.rects.set_array(diag.capsize_angle(np.asarray(theta, dtype=float), self.axis))
         if self.circles is not None:
             centres, _ = disc_centres(x, z, theta, self.width, self.thickness, self.discs)
             self.circles.set_offsets(centres.reshape(-1, 2))
@@ -303,9 +340,19 @@ def _time_text(t: float, width_m: float) -> str:
 class FrameMaker:
     """One figure, reused for every frame of a run; :meth:`draw` returns an RGB array."""
 
-    def __init__(self, run: dict, scene: Scene, discs: bool, frames: np.ndarray, width_m: float = 70.0, px_width: int = 1280):
+    def __init__(
+        self,
+        run: dict,
+        scene: Scene,
+        discs: bool,
+        frames: np.ndarray,
+        width_m: float = 70.0,
+        px_width: int = 1280,
+        fragments: bool = False,
+    ):
         self.run = run
         self.scene = scene
+        self.fragments = fragments
         self.width_m = width_m
         self.bonds = BondFaces.read("run", run)
         snaps = run["snapshots"]
@@ -369,6 +416,7 @@ class FrameMaker:
                 bond_width=1.0 if overview else 1.8,
                 outline=self.outline,
                 axis=self.axis,
+                pieces=fragments,
             )
             self.artists.append(art)
         self.ax.set_xlim(*self.xlim)
@@ -380,15 +428,17 @@ class FrameMaker:
         else:
             self.ax.set_aspect("equal", adjustable="box")
             self.ax.set_xlabel("x (widths)")
-        phi_colorbar(self.fig, self.artists[0].rects, list(axes), fraction=0.03, pad=0.02)
+        if not fragments:  # the pieces' colours are no scale
+            phi_colorbar(self.fig, self.artists[0].rects, list(axes), fraction=0.03, pad=0.02)
         self.title = self.fig.suptitle("", fontsize=10)
 
     def draw(self, k: int) -> np.ndarray:
         snaps = self.run["snapshots"]
         x, z, theta = snaps["x"][k], snaps["z"][k], snaps["theta"][k]
         t = float(snaps["time"][k])
+        labels = fragment_labels(self.run, k) if self.fragments else None
         for art in self.artists:
-            art.update(x, z, theta, t)
+            art.update(x, z, theta, t, labels)
         if self.seas:  # the run has waves: read_run cut eta to the snapshots' length
             _, eta = wave_surface(self.run, k)
             for sea in self.seas:
@@ -402,6 +452,8 @@ class FrameMaker:
         text = f"{_time_text(t, self.width_m)}    capsized {100 * frac:.0f}%"
         if self.bonds is not None:
             text += f"    bonds intact (cyan) {int(self.bonds.intact(t).sum())} of {len(self.bonds)}"
+        if labels is not None:
+            text += f"    pieces {len(np.unique(labels))} (one colour each)"
         self.title.set_text(text)
         self.fig.canvas.draw()
         if not self._laid_out:  # lay out once (first frame), then keep the axes still
@@ -429,8 +481,13 @@ def render(
     fps: int = 20,
     width_m: float | None = None,
     overwrite: bool = False,
+    fragments: bool = False,
 ) -> list[Path]:
     """Render a run to ``out``: an ``.mp4`` file, or a directory of ``frame_00000.png`` ...
+
+    ``fragments``: each body coloured by its piece of ice, not by its capsize angle (without
+    the bonds effect each body is its own piece); labels in the file that are not body
+    indices are refused in one line naming ``--fragments`` before anything is written.
 
     An existing movie, or a directory holding frames, is refused unless ``overwrite`` (then
     the old frames are removed first, so none of an earlier render is left). ``width_m``:
@@ -454,6 +511,8 @@ def render(
         what = "file exists" if movie else f"holds {len(stale)} frames of an earlier render"
         raise RunError(f"--out {str(out)!r}: {what} (use --overwrite to replace, or another --out)")
     run, scene = load_run(path)
+    if fragments and "fragment" in run["snapshots"]:
+        check_labels(path, run["snapshots"]["fragment"], len(run["icebergs"]["width"]), flag="--fragments: ")
     width_m = width_m if width_m is not None else scene.width_m
     frames = frame_indices(len(run["snapshots"]["time"]), every)
     for old in stale:
@@ -472,7 +531,7 @@ def render(
     written: list[Path] = []
     done = False
     try:
-        maker = FrameMaker(run, scene, discs, frames, width_m=width_m)
+        maker = FrameMaker(run, scene, discs, frames, width_m=width_m, fragments=fragments)
         for n, k in enumerate(frames):
             rgb = maker.draw(int(k))
             if writer is not None:
@@ -578,7 +637,14 @@ def _movie_writer(out: Path, fps: int) -> _Movie:
 def main(args) -> int:
     """Entry point of ``melange-ti render``."""
     written = render(
-        args.run, args.out, discs=args.discs, every=args.every, fps=args.fps, width_m=args.width_m, overwrite=args.overwrite
+        args.run,
+        args.out,
+        discs=args.discs,
+        every=args.every,
+        fps=args.fps,
+        width_m=args.width_m,
+        overwrite=args.overwrite,
+        fragments=args.fragments,
     )
     if len(written) == 1:
         print(f"wrote {written[0]}")

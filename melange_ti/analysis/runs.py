@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +12,7 @@ import numpy as np
 from .. import diagnostics
 from ..io.hdf5 import OutputError, read_run
 from ..scene import Scene, SceneError, stored_scene
-from . import stats
+from . import fragments, stats
 
 PAPER_FIG2_TIMES = (100.0, 200.0, 300.0, 400.0)
 
@@ -36,6 +36,14 @@ class Run:
     data: dict
     scene: Scene
     flat: dict
+    pieces: object = field(default=None, init=False, repr=False, compare=False)  # fragment_table, once read
+
+    def fragment_table(self):
+        """:func:`melange_ti.analysis.fragments.fragment_table` of this run: one row per piece
+        of ice per snapshot (computed once, from the data already read)."""
+        if self.pieces is None:
+            self.pieces = fragments.table_of(self.data)
+        return self.pieces
 
     @property
     def diag(self) -> dict:
