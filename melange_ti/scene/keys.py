@@ -309,8 +309,8 @@ def shelf_warnings(shelf) -> list[str]:
         return []
     return [
         "shelf.crevasse_depth / basal_crevasse_depth: a crevasse's walls do not touch while the ligament between "
-        "them holds, so they can pass through each other; when it breaks the contacts take them apart with a jolt "
-        "that the energy budget does not close (docs/bonds.md, Crevasses: up to 15% of the released energy)"
+        "them holds, so they can pass through each other, which lets the pieces tip at their joints; when it "
+        "breaks the contacts take them apart with a jolt (docs/bonds.md, Crevasses: a known flaw)"
     ]
 
 
