@@ -39,6 +39,7 @@ from .io.hdf5 import (
 )
 from .model import Model
 from .physics.data.schema import BODIES
+from .physics.effects import OWNERS
 from .physics.stages import SAMPLE_NAMES
 from .scene import Icebergs, Scene
 from .version import __version__
@@ -765,6 +766,14 @@ class Simulation:
                 f"--resume: checkpoint {self.ckpt} was written by an earlier melange_ti that kept no outlines, and "
                 f"{self.out} holds polygons: continue the run with that version, or start it again"
             )
+        for e in OWNERS:  # an owning effect's table that has gained a column since (format 9)
+            held = np.asarray(ck[f"acc_{e.name}"]) if f"acc_{e.name}" in ck else None
+            if held is not None and held.ndim == 2 and held.shape[1] != e.table.size:
+                raise RunError(
+                    f"--resume: checkpoint {self.ckpt} holds the {e.name} effect's table with {held.shape[1]} columns "
+                    f"where this melange_ti has {e.table.size} (written by another version): continue the run with "
+                    "that version, or start it again"
+                )
         if "corners" in data["icebergs"] and data["attrs"].get(OUTLINE_DISCS_ATTR) != OUTLINE_DISCS:
             raise RunError(
                 f"--resume: {self.out} holds polygons whose collision discs an earlier melange_ti laid out by another "

@@ -97,7 +97,8 @@ class BondFaces:
         rest = np.asarray(b["rest"], dtype=float)
         n = len(run["icebergs"]["width"])
         need = ("a", "break_time")
-        if any(k not in b for k in need) or rest.ndim != 2 or rest.shape[1] != len(REST):
+        # a file written before the last column (TOUCHING) was kept has one column fewer
+        if any(k not in b for k in need) or rest.ndim != 2 or rest.shape[1] not in (len(REST) - 1, len(REST)):
             raise OutputError(f"{path}: /bonds is not the bonds effect's table (columns {', '.join(REST)})")
         a = np.asarray(b["a"])
         if a.shape != (len(rest),) or np.any(~np.isfinite(a)) or np.any((a < 0) | (a >= n)):

@@ -142,13 +142,11 @@ class Scene:
     def warnings(self) -> list[str]:
         """What the icebergs miss to float, said in one line (``check`` and ``run`` print it):
         a scene without gravity or buoyancy is legitimate (a free fall, a drag decay) but is
-        far more often a ``--set scene.effects=friction`` that meant ``scene.effects+=friction``;
-        and what a shelf's keys leave to the reader (:func:`.keys.shelf_warnings`)."""
+        far more often a ``--set scene.effects=friction`` that meant ``scene.effects+=friction``."""
         names = self.effects.names()
         missing = [e for e in ("gravity", "buoyancy") if not getattr(self.effects, e)]
-        shelf = K.shelf_warnings(self.shelf)
         if not missing:
-            return shelf
+            return []
         what = {
             ("gravity",): "nothing pulls the icebergs down: they rise out of the water",
             ("buoyancy",): "nothing holds the icebergs up: they sink",
@@ -158,8 +156,7 @@ class Scene:
             what = "nothing acts on the icebergs but their initial velocities"
         return [
             f"scene.effects = {names} has no {' and no '.join(missing)}: {what}; to add an effect to the scene's "
-            "list instead of replacing it: --set scene.effects+=NAME",
-            *shelf,
+            "list instead of replacing it: --set scene.effects+=NAME"
         ]
 
     def notes(self) -> list[str]:

@@ -302,18 +302,6 @@ def shelf_problem(shelf) -> tuple[str, object, str] | None:
     return None
 
 
-def shelf_warnings(shelf) -> list[str]:
-    """What a shelf's keys leave to the reader, each in one line: crevasses whose walls pass
-    through each other while the ligament below holds (docs/bonds.md, Crevasses)."""
-    if shelf is None or not shelf_intact(shelf) or shelf.crevasse_depth + shelf.basal_crevasse_depth == 0.0:
-        return []
-    return [
-        "shelf.crevasse_depth / basal_crevasse_depth: a crevasse's walls do not touch while the ligament between "
-        "them holds, so they can pass through each other, which lets the pieces tip at their joints; when it "
-        "breaks the contacts take them apart with a jolt (docs/bonds.md, Crevasses: a known flaw)"
-    ]
-
-
 START = (
     Key("file", "", "", "a run file (relative to the scene file) whose snapshot is the initial state"),
     Key.nonnegative("time", 0.0, "sqrt(w/g)", "the last snapshot at or before this time is used"),

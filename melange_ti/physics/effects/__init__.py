@@ -43,6 +43,7 @@ POTENTIALS = tuple(e for e in REGISTRY if "potential" in e.terms)
 IMPULSE_LAW = tuple(e for e in REGISTRY if "impulse" in e.terms)  # effects that replace the contact law's impulse
 JOINED = tuple(e for e in REGISTRY if "joined" in e.terms)  # effects that hold a pair's contact (bonds)
 JOINED_WALL = tuple(e for e in REGISTRY if "joined_wall" in e.terms)
+KEPT = tuple(e for e in REGISTRY if "kept" in e.terms)  # effects that hold a touching pair's overlap (bonds)
 OWNERS = tuple(e for e in REGISTRY if e.table is not None)  # effects that own a table (``a.own``)
 # an owner whose kernels index its rows from 0 (``rows_first``) must come first among them: its
 # rows then start the stacked table whatever else a scene names
@@ -118,6 +119,7 @@ __all__ = [
     "clashes",
     "JOINED",
     "JOINED_WALL",
+    "KEPT",
     "IMPULSE_LAW",
     "Dataset",
     "Quantity",

@@ -152,6 +152,10 @@ class Effect:
     ``joined(a, i, j) -> ti.i32``              1 if the pair (i, j) has no contact (the effect
                                                holds it: an intact bond); ``joined_wall(a, i)``
                                                the same for the wall
+    ``kept(a, i, j) -> ti.i32``                1 if the pair (i, j) touches through contacts
+                                               but the effect holds its overlap (a bond
+                                               beside a crevasse's walls): the overlap
+                                               correction leaves it
     ``impulse(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, K_nn, m1, I1, c1n, m2, I2, c2n, kick_vn)
        -> (J_n, ti.Vector(ledger terms))``     the contact law's impulse (at most one named
                                                effect has it; without, the frictionless law
@@ -262,6 +266,7 @@ TERMS = (
     "impulse",
     "joined",
     "joined_wall",
+    "kept",
 )
 
 

@@ -7,16 +7,20 @@ found, the final velocities and the pushes so far (:func:`predicted_gap`); the w
 measured from the discs. Sweeps repeat (at most ``MAX_CORRECT``) until none pushes, so a
 push that drives a body back into the wall or a third body is undone too. The potential
 energy the pushes add is booked per moved body (``Acc.CORRECTION``, ``correction_work``).
+A pair whose overlap a named effect holds (its ``kept`` term: a bond beside a crevasse's
+walls, which touch through impulses) is not pushed.
 """
 
 import taichi as ti
 
 from ..data.schema import Acc, Body, BodyInt, Contact, Param
+from ..effects import KEPT
 from ..numerics import TINY
 from . import wall
-from .forces import contact_mass, potential_energy
+from .forces import any_on, contact_mass, potential_energy
 from .impulses import contact, contact_range, in_pass
 from .pairs import normal_speed
+from .terms import term as term_of
 
 MAX_CORRECT = 4  # correction sweeps while some overlap is still being pushed apart
 
@@ -108,6 +112,17 @@ def prepare_body(fx: ti.template(), a: ti.template(), i, eager: ti.template()):
 
 
 @ti.func
+def kept(fx: ti.template(), a: ti.template(), i, j) -> ti.i32:
+    """1 if a named effect holds the overlap of the touching pair (i, j) (its ``kept`` term:
+    a bond beside a crevasse's walls), which the correction then leaves."""
+    out = 0
+    for e in ti.static(KEPT):
+        if ti.static(e.on(fx)):
+            out = out | ti.static(term_of(e, "kept"))(a, i, j)
+    return out
+
+
+@ti.func
 def sweep_body(fx: ti.template(), a: ti.template(), sweep, i, eager: ti.template()):
     """One sweep's pushes of body i's contacts (wall, then partners j > i ascending:
     :func:`.impulses.contact_range`; coloured: those of the colour under way,
@@ -120,9 +135,12 @@ def sweep_body(fx: ti.template(), a: ti.template(), sweep, i, eager: ti.template
         j, slot, _px, _pz, nx, nz, g_end = contact(fx, a, i, s)
         if in_pass(fx, a, i, slot):
             moved = a.bi[i, BodyInt.PUSHED]
+            held = 0
             if j >= 0:
                 moved = ti.max(moved, a.bi[j, BodyInt.PUSHED])
-            if moved >= since:
+                if ti.static(any_on(KEPT, fx)):
+                    held = kept(fx, a, i, j)
+            if moved >= since and held == 0:
                 pushed += push(fx, a, sweep, i, j, nx, nz, g_end, eager)
     return pushed
 

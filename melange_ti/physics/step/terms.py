@@ -32,7 +32,18 @@ MODULES: dict[str, ModuleType] = {
 }
 
 # the terms a module here must hold (an ``impulse`` term is the contact law's: .impulses.LAWS)
-LINKED_HERE = ("force", "offset_kick", "added_inertia", "after_kick", "damp", "post_drift", "potential", "joined", "joined_wall")
+LINKED_HERE = (
+    "force",
+    "offset_kick",
+    "added_inertia",
+    "after_kick",
+    "damp",
+    "post_drift",
+    "potential",
+    "joined",
+    "joined_wall",
+    "kept",
+)
 
 
 def module(effect: Effect) -> ModuleType | None:

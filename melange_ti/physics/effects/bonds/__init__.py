@@ -104,6 +104,12 @@ TABLE = Table(
         Column("CB", "constant", "rho_w w^3 sqrt(g w)", "bending dashpot 2 zeta sqrt(k_b I)"),
         Column("ST", "constant", "rho_w g w", "tensile strength of this bond"),
         Column("SS", "constant", "rho_w g w", "shear strength of this bond"),
+        Column(
+            "TOUCHING",
+            "constant",
+            "1",
+            "1: the pair's faces beside the bond touch through contacts while it holds (a crevassed joint's walls)",
+        ),
         Column("INTACT", "state", "1", "1 while the bond holds, 0 once broken"),
         Column("AGE", "state", "1", "steps taken while intact (at a break: the step it broke at)"),
         Column("BREAK_SIG", "state", "rho_w g w", "tensile stress when it broke (0: intact)"),
@@ -247,7 +253,7 @@ EFFECT = Effect(
         Column("BOND_V0Z", "scratch", "w / sqrt(w/g)", "bonds: vz right after the forces' kick"),
         Column("BOND_V0W", "scratch", "rad / sqrt(w/g)", "bonds: omega right after the forces' kick"),
     ),
-    terms=("force", "after_kick", "damp", "post_drift", "joined", "joined_wall"),
+    terms=("force", "after_kick", "damp", "post_drift", "joined", "joined_wall", "kept"),
     torque=True,
     horizontal=True,
     own_offset=True,  # bond_offset_work: its share of every velocity change, impulses' too

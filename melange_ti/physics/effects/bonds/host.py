@@ -140,12 +140,17 @@ def _wall_pairs(scene, bergs, a: int) -> list[tuple[int, int]]:
 def build(scene, bergs, pair_list) -> np.ndarray:
     """The bond table's rows at t = 0 (f64) for ``pair_list``: the geometry, then the material.
     A bonded shelf's joints keep the intact ligament between its crevasses (:func:`joints`):
-    a joint's bond is cut down to it, and a cell's bond wholly within a crevasse is not made."""
+    a joint's bond is cut down to it, and a cell's bond wholly within a crevasse is not made.
+    A bond cut shorter than its pair's shared face leaves the crevasse's walls beside it
+    touching through contacts (``TOUCHING``: docs/bonds.md, Crevasses)."""
     joint, band = joints(scene, bergs, pair_list)
     rows = geometry(scene.physics.wall_x, bergs, pair_list, band)
     if joint.any():
-        keep = rows[: len(pair_list), Bond.LEN] > MIN_OVERLAP
-        rows, joint = rows[: len(pair_list)][keep], joint[keep]
+        n = len(pair_list)
+        whole = geometry(scene.physics.wall_x, bergs, pair_list)[:n, Bond.LEN]
+        rows[:n, Bond.TOUCHING] = np.where(rows[:n, Bond.LEN] < whole - MIN_OVERLAP, 1.0, 0.0)
+        keep = rows[:n, Bond.LEN] > MIN_OVERLAP
+        rows, joint = rows[:n][keep], joint[keep]
         if not rows.shape[0]:
             rows = geometry(scene.physics.wall_x, bergs, [])
     out = material(scene, bergs, rows)
@@ -467,6 +472,8 @@ def _start_table(scene, bergs) -> np.ndarray:
     rows[:, Bond.B] = -1.0
     for q, name in enumerate(GEOMETRY):
         rows[: rest.shape[0], getattr(Bond, name)] = rest[:, q]
+    if rest.shape[1] == len(REST):  # a file written before TOUCHING was kept has none: its walls never touched
+        rows[: rest.shape[0], Bond.TOUCHING] = rest[:, REST.index("TOUCHING")]
     rows[: rest.shape[0], Bond.INTACT] = 1.0
     return material(scene, bergs, rows)
 

@@ -274,16 +274,32 @@ def correction_stage(fx: ti.template(), a: ti.template()):
 
 
 @ti.func
-def joined(a: ti.template(), i, j) -> ti.i32:
-    """1 if an intact bond joins icebergs i and j (their contact is the bond's)."""
+def _holds(a: ti.template(), i, j, touching) -> ti.i32:
+    """1 if an intact bond whose ``TOUCHING`` is ``touching`` joins icebergs i and j."""
     found = 0
     for k in ti.static(range(MAX_BONDS)):
         r = ti.cast(a.b[i, Body.BOND_1 + k], ti.i32) - 1
         if r >= 0:
-            if a.own[r, Bond.INTACT] > 0.5:
+            if a.own[r, Bond.INTACT] > 0.5 and (a.own[r, Bond.TOUCHING] > 0.5) == touching:
                 if ti.cast(a.own[r, Bond.A], ti.i32) == j or ti.cast(a.own[r, Bond.B], ti.i32) == j:
                     found = 1
     return found
+
+
+@ti.func
+def joined(a: ti.template(), i, j) -> ti.i32:
+    """1 if an intact bond joins icebergs i and j over their whole shared face (their contact
+    is the bond's)."""
+    return _holds(a, i, j, False)
+
+
+@ti.func
+def kept(a: ti.template(), i, j) -> ti.i32:
+    """1 if an intact bond holds a ligament between icebergs i and j whose walls beside it
+    touch through contacts (a crevassed joint): their impulses act, and the bond, not the
+    overlap correction, holds their overlap (the correction's pushes against a stiff bond
+    put energy into it: docs/bonds.md, Crevasses)."""
+    return _holds(a, i, j, True)
 
 
 @ti.func
@@ -309,4 +325,4 @@ STAGES = (
     ),
 )
 
-__all__ = ["force", "after_kick", "damp", "post_drift", "joined", "joined_wall", "STAGES", "update"]
+__all__ = ["force", "after_kick", "damp", "post_drift", "joined", "joined_wall", "kept", "STAGES", "update"]
