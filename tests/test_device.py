@@ -299,7 +299,10 @@ def _compare_bonded(folder: Path, text: str, tol: float) -> dict[str, float]:
     from melange_ti.scene import dumps_toml
 
     doc = tomllib.loads(text)
-    doc["iceberg"] = [{**b, "x": float(np.nextafter(b["x"], np.inf))} for b in doc["iceberg"]]
+    if "iceberg" in doc:
+        doc["iceberg"] = [{**b, "x": float(np.nextafter(b["x"], np.inf))} for b in doc["iceberg"]]
+    else:  # a [start] from a run's snapshot: one ulp of the ice's density
+        doc["physics"]["density_ratio"] = float(np.nextafter(doc["physics"]["density_ratio"], np.inf))
     (folder / "ulp.toml").write_text(dumps_toml(doc))
     cmd = [sys.executable, "-m", "melange_ti", "run", str(folder / "ulp.toml"), "--out", str(folder / "ulp.h5")]
     subprocess.run(cmd + ["--set", "contacts.order=coloured"], check=True, capture_output=True, text=True, cwd=ROOT, timeout=900)
@@ -337,6 +340,37 @@ def test_waves_on_vulkan_match_the_cpu(tmp_path):
     assert "snapshots/eta" in worst
     with h5py.File(tmp_path / "cpu.h5", "r") as f:
         assert float(np.max(np.abs(f["snapshots/eta"][()]))) > 1e-4  # the icebergs made waves
+
+
+@pytest.mark.gpu
+@needs_vulkan
+def test_a_crevasses_touching_walls_on_vulkan_match_the_cpu(tmp_path):
+    """A soft shelf of 5 pieces crevassed through 3/4 of its thickness (issue 50: the joints'
+    walls touch through contacts beside the ligaments' bonds, which the overlap correction
+    leaves), struck by its free front block: run on the CPU to t = 26, when its joints rock
+    (tests/physics/test_crevasses.py's case), then from that snapshot (``[start]``) for 100
+    steps on each backend, f64: every dataset within 1e-12 of the CPU or within what one ulp of
+    the ice's density does to the CPU's own run, with contacts in both."""
+    from .physics.test_crevasses import soft_crevassed_shelf
+
+    src = tmp_path / "src.h5"
+    (tmp_path / "src.toml").write_text(soft_crevassed_shelf())
+    cmd = [sys.executable, "-m", "melange_ti", "run", "src.toml", "--out", "src.h5", "--set", "time.duration=26.0"]
+    subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=tmp_path, timeout=900)
+    text = (
+        '[scene]\neffects = ["gravity", "buoyancy", "drag", "collisions", "wall", "bonds"]\n'
+        "[physics]\ndensity_ratio = 0.8946\nbond_modulus = 2.0\ntensile_strength = 1e3\nshear_strength = 1e3\n"
+        "[time]\ndt = 0.01\nduration = 1.0\n[output]\nsnapshot_interval = 0.25\ndiagnostic_interval = 0.05\n"
+        f'[start]\nfile = "{src}"\ntime = 26.0\n'
+    )
+    _run_on_cpu_and_vulkan(tmp_path, text)
+    worst = _compare_bonded(tmp_path, text, TOLERANCE["f64"])
+    assert "diagnostics/bond_energy" in worst
+    for arch in ("cpu", "vulkan"):
+        with h5py.File(tmp_path / f"{arch}.h5", "r") as f:
+            assert int(f["diagnostics/bonds_intact"][-1]) == 5
+            assert int(f["bonds/rest"][:, -1].sum()) == 4  # the four crevassed joints' walls touch
+            assert int(f["diagnostics/contacts"][()].sum()) > 0
 
 
 @pytest.mark.gpu

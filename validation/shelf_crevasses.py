@@ -95,19 +95,22 @@ def main() -> None:
     import matplotlib.pyplot as plt
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
-    for seed, mk in zip(seeds, "os^D", strict=False):
+    shown = sorted({r["crevasse_depth"] for r in rows if r["strength"] != ""})  # every depth in the CSV, not only this call's
+    highest = {}
+    for seed, mk in zip(sorted({r["seed"] for r in rows}), "os^D", strict=False):
         hi = []
-        for d in depths:
+        for d in shown:
             b = [float(r["strength"]) for r in rows if r["seed"] == seed and r["crevasse_depth"] == d and broke(r)]
             hi.append(max(b) if b else np.nan)
-        a1.plot(depths, hi, mk + "-", mfc="none", label=f"seed {seed}")
+        highest[seed] = hi
+        a1.plot(shown, hi, mk + "-", mfc="none", label=f"seed {seed}")
     d = np.linspace(0, 0.9, 50)
-    ref = np.nanmedian([float(r["strength"]) for r in rows if r["crevasse_depth"] == 0 and r["strength"] != "" and broke(r)])
+    ref = np.nanmedian([hi[0] for hi in highest.values()]) if shown and shown[0] == 0 else np.nan  # the seeds' median at d = 0
     a1.plot(d, ref / (1 - d) ** 2, "k--", lw=1, label="(1 - d)^-2 from d = 0")
     a1.set(yscale="log", xlabel="crevasse depth d (fraction of the thickness)", ylabel="highest strength that broke (rho_w g w)")
     a1.legend(fontsize=7)
     a1.grid(alpha=0.3, which="both")
-    for d_, c in zip(depths, ("k", "C0", "C1", "C2", "C3", "C4"), strict=False):
+    for d_, c in zip(shown, ("k", "C0", "C1", "C2", "C3", "C4"), strict=False):
         mine = [r for r in rows if r["crevasse_depth"] == d_ and r["strength"] != ""]
         pts = sorted((float(r["scaled"]), float(r["capsized"])) for r in mine)
         a2.plot(*zip(*pts, strict=True), "o", color=c, mfc="none", ms=4, label=f"d = {d_:g}")

@@ -215,6 +215,17 @@ def shelf_overlap(bergs, x, z, theta) -> float:
     return deepest
 
 
+def soft_crevassed_shelf() -> str:
+    """A soft shelf (modulus 2) of 5 pieces bonded to the wall, crevassed through 3/4 of its
+    thickness, and its free front block tilted 0.2 rad, bonds unbreakable, to t = 60."""
+    return (
+        '[scene]\neffects = ["gravity", "buoyancy", "drag", "collisions", "wall", "bonds"]\n'
+        "[physics]\nbond_modulus = 2.0\ntensile_strength = 1e3\nshear_strength = 1e3\n"
+        "[time]\ndt = 0.01\nduration = 60.0\n[output]\nsnapshot_interval = 0.5\ndiagnostic_interval = 0.5\n"
+        "[shelf]\ncount = 6\nbonded = true\nbonded_wall = true\nfront = 1\ntilt = 0.2\ngap = 0.1\ncrevasse_depth = 0.75\n"
+    )
+
+
 def test_a_crevasses_walls_touch_and_do_not_pass_through_each_other():
     """A soft shelf (modulus 2) of 5 pieces bonded to the wall, crevassed through 3/4 of its
     thickness, struck by its free front block tipping onto it (tilted 0.2 rad), its bonds
@@ -224,13 +235,7 @@ def test_a_crevasses_walls_touch_and_do_not_pass_through_each_other():
     ``TOUCHING`` set to 0 in the same model: 0.0175 w measured, against 0.0010)."""
     from melange_ti.model import Model
 
-    text = (
-        '[scene]\neffects = ["gravity", "buoyancy", "drag", "collisions", "wall", "bonds"]\n'
-        "[physics]\nbond_modulus = 2.0\ntensile_strength = 1e3\nshear_strength = 1e3\n"
-        "[time]\ndt = 0.01\nduration = 60.0\n[output]\nsnapshot_interval = 0.5\ndiagnostic_interval = 0.5\n"
-        "[shelf]\ncount = 6\nbonded = true\nbonded_wall = true\nfront = 1\ntilt = 0.2\ngap = 0.1\ncrevasse_depth = 0.75\n"
-    )
-    sc = loads(text)
+    sc = loads(soft_crevassed_shelf())
     bergs = sc.icebergs()
     deepest = {}
     for touching in (True, False):
