@@ -190,6 +190,7 @@ class Model:
         bergs = icebergs if icebergs is not None else scene.icebergs()
         self.scene = scene
         self.n = n = bergs.count
+        self._cells = None if bergs.parent is None else (bergs.parent, bergs.cell)
         self.real = ti.f32 if scene.precision == "f32" else ti.f64
         self.np_real = np.float32 if scene.precision == "f32" else np.float64
         self.calibration: dict[str, float] | None = None  # ms/step of each form, if measured
@@ -358,7 +359,8 @@ class Model:
     def constants(self) -> dict[str, np.ndarray]:
         """Per-iceberg constants ``width, thickness, mass, inertia``, arrays of shape (N,); with
         polygons also their outlines (``corners``, ``corner_u``, ``corner_v`` (N, corners),
-        ``axis``: :data:`melange_ti.io.hdf5.OUTLINE_ATTRS`)."""
+        ``axis``: :data:`melange_ti.io.hdf5.OUTLINE_ATTRS`); with cells each body's iceberg and
+        place in its grid (``cell_iceberg``, ``cell_ix``, ``cell_iz``: :data:`melange_ti.io.hdf5.CELL_ATTRS`)."""
         rows = self._rows()
         cols = BODIES.outputs("constant")
         out = {k: rows[:, cols[k]].copy() for k in CONSTANTS}
@@ -370,6 +372,9 @@ class Model:
                 corner_v=corners[..., 1].copy(),
                 axis=rows[:, Body.AXIS].copy(),
             )
+        if self._cells is not None:
+            parent, cell = self._cells
+            out.update(cell_iceberg=np.asarray(parent, dtype=np.int64), cell_ix=cell[:, 0].copy(), cell_iz=cell[:, 1].copy())
         return out
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:

@@ -226,12 +226,24 @@ def test_a_piece_of_cells_and_one_of_whole_icebergs_are_sized_alike(breaking_pai
     assert set(alone[0]) == set(figures.FRAGMENT_COLUMNS)
 
 
-def test_a_run_begun_from_a_run_of_cells_is_of_cells(block_and_flat, tmp_path):
-    """A ``[start]`` scene says nothing of cells: the run it begins from does (when it is gone,
-    the bodies count as whole icebergs)."""
-    for start, cells in ((block_and_flat, True), (tmp_path / "gone.h5", False)):
-        scene = loads(f'[scene]\neffects = {FULL}\n[start]\nfile = "{start}"\n', geometry=False)
-        assert celled(scene) is cells
+def test_a_run_begun_from_a_run_of_cells_is_of_cells(block_and_flat, whole_shelf, tmp_path):
+    """A run of cells writes each body's iceberg and place in its grid (``/icebergs/cell_iceberg``,
+    ``cell_ix``, ``cell_iz``); a ``[start]`` scene says nothing of cells, and the run it begins
+    keeps them from the file it starts from, so its pieces are told apart the same way."""
+    src = read_run(block_and_flat)
+    assert celled(src["icebergs"])
+    g = src["icebergs"]
+    places = {(int(p), int(ix), int(iz)) for p, ix, iz in zip(g["cell_iceberg"], g["cell_ix"], g["cell_iz"], strict=True)}
+    assert len(g["cell_iceberg"]) == 9 and places == {(0, ix, iz) for ix in range(4) for iz in range(2)} | {(1, 0, 0)}
+    t = float(src["snapshots"]["time"][-1])
+    out = tmp_path / "begun.h5"
+    begun = f'[scene]\neffects = {FULL}\n[time]\ndt = 0.002\nduration = 1.0\n[start]\nfile = "{block_and_flat}"\ntime = {t}\n'
+    mt.run(loads(begun), out)
+    got = read_run(out)["icebergs"]
+    assert celled(got)
+    for k in ("cell_iceberg", "cell_ix", "cell_iz"):
+        np.testing.assert_array_equal(got[k], src["icebergs"][k])
+    assert not celled(read_run(whole_shelf)["icebergs"])  # whole icebergs write none
 
 
 # ---------------------------------------------------------------------------------------

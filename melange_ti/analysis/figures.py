@@ -622,7 +622,7 @@ def by_area(runs: Sequence[Run]) -> bool:
     """Whether the fragments figure measures a piece by its area: when some bonded run's
     bodies are cells (:func:`melange_ti.analysis.fragments.celled`), whose number says
     nothing of a piece's size; otherwise, as before cells, by its icebergs."""
-    return any(has_fragments(r) and celled(r.scene) for r in runs)
+    return any(has_fragments(r) and celled(r.data["icebergs"]) for r in runs)
 
 
 @dataclass

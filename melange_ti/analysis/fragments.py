@@ -167,26 +167,9 @@ def check_labels(path, labels, n: int, flag: str = "") -> None:
         )
 
 
-STARTS = 32  # runs begun from runs' snapshots followed back at most (files begun from each other in a circle: cut there)
-
-
-def celled(scene, depth: int = 0) -> bool:
-    """Whether a run's bodies are cells of icebergs: ``cells`` other than ``[1, 1]`` on its
-    ``[shelf]`` or on an ``[[iceberg]]``. A run begun from another's snapshot (``[start]``)
-    is celled if that run was (its file read, where it still is; if it is gone, its bodies
-    count as whole icebergs)."""
-    from ..io.hdf5 import run_status
-    from ..scene import SceneError, loads
-    from ..scene.core import ONE_CELL
-
-    if scene.shelf is not None:
-        return list(scene.shelf.cells) != ONE_CELL
-    if scene.iceberg_table is not None:
-        return any(list(b.get("cells", ONE_CELL)) != ONE_CELL for b in scene.iceberg_table)
-    status = run_status(scene.start.file) if scene.start is not None and depth < STARTS else None
-    if status is None or status[0] is None:
-        return False
-    try:
-        return celled(loads(status[0], geometry=False), depth + 1)
-    except SceneError:
-        return False
+def celled(icebergs) -> bool:
+    """Whether a run's bodies are cells of icebergs: its ``/icebergs`` (a mapping, from
+    :func:`melange_ti.io.hdf5.read_run`) holds each body's iceberg (``cell_iceberg``), as a run with
+    ``cells`` on its ``[shelf]`` or an ``[[iceberg]]`` writes it, and a ``[start]`` from one
+    keeps it."""
+    return "cell_iceberg" in icebergs

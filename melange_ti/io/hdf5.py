@@ -90,6 +90,15 @@ OUTLINE_ATTRS = {
     "corner_v": {"units": "w", "long_name": "polygons: each corner's body-frame v about the centroid (0 past corners)"},
     "axis": {"units": "rad", "long_name": "polygons: the angle from the body's v axis to its principal axis nearest it"},
 }
+# A run whose icebergs are partitioned into cells (``cells = [nx, nz]``) also holds each body's
+# iceberg and its place in that iceberg's grid, so that the pieces can be told from the file
+# (and a ``[start]`` from it keeps them); a run without cells has none of them.
+CELL_ATTRS = {
+    "cell_iceberg": {"units": "1", "long_name": "cells: the iceberg (0-based, in the scene's order) this body is a cell of"},
+    "cell_ix": {"units": "1", "long_name": "cells: the cell's column in its iceberg's grid, across the width"},
+    "cell_iz": {"units": "1", "long_name": "cells: the cell's layer in its iceberg's grid, through the thickness from the base"},
+}
+INTEGER_CONSTANTS = ("corners", *CELL_ATTRS)
 
 
 def variable_attrs() -> dict[str, dict[str, dict[str, str]]]:
@@ -98,6 +107,7 @@ def variable_attrs() -> dict[str, dict[str, dict[str, str]]]:
     cols = {c.output: c for c in BODIES.columns if c.output}
     bergs = {k: {"units": cols[k].units, "long_name": cols[k].doc} for k in ("width", "thickness", "mass", "inertia")}
     bergs.update(OUTLINE_ATTRS)
+    bergs.update(CELL_ATTRS)
     snaps = {k: {"units": cols[k].units, "long_name": cols[k].doc} for k in STATE}
     diags = {f.name: {"units": f.units, "long_name": f.long_name} for f in FIELDS}
     out = {"icebergs": bergs, "snapshots": snaps, "diagnostics": diags}
@@ -208,7 +218,7 @@ class RunWriter:
             corner.attrs.update({"units": "1", "long_name": "corner of an iceberg's outline, counter-clockwise"})
             corner.make_scale("corner")
         for k, v in constants.items():
-            ds = g.create_dataset(k, data=np.asarray(v, dtype=np.int64 if k == "corners" else self.dtype))
+            ds = g.create_dataset(k, data=np.asarray(v, dtype=np.int64 if k in INTEGER_CONSTANTS else self.dtype))
             ds.dims[0].attach_scale(iceberg)
             if ds.ndim == 2:
                 ds.dims[1].attach_scale(corner)
@@ -501,7 +511,8 @@ def last_row(path: str | Path, names: tuple[str, ...]) -> dict[str, float]:
 def last_snapshot(path: str | Path, time: float = math.inf) -> dict[str, np.ndarray | float]:
     """The last snapshot at or before ``time`` (within 1e-9 relative): ``{"time": t, "x": ...,
     ..., "omega": ..., "width": ..., "thickness": ...}``, float64 arrays of shape (N,); a run
-    of polygons adds ``outline`` (N, corners, 2) and ``corners`` (N,) (:data:`OUTLINE_ATTRS`).
+    of polygons adds ``outline`` (N, corners, 2) and ``corners`` (N,) (:data:`OUTLINE_ATTRS`),
+    one of cells ``parent`` (N,) and ``cell`` (N, 2) (:data:`CELL_ATTRS`).
     One-line :class:`OutputError` for an unreadable file or one without snapshots,
     :class:`SnapshotTimeError` if the first snapshot is later than ``time``."""
     data = read_run(path)
@@ -518,4 +529,8 @@ def last_snapshot(path: str | Path, time: float = math.inf) -> dict[str, np.ndar
         g = data["icebergs"]
         out["outline"] = np.stack([np.asarray(g["corner_u"], dtype=np.float64), np.asarray(g["corner_v"], dtype=np.float64)], -1)
         out["corners"] = np.asarray(g["corners"], dtype=np.int64)
+    if "cell_iceberg" in data["icebergs"]:  # cells: each body's iceberg and place in its grid
+        g = data["icebergs"]
+        out["parent"] = np.asarray(g["cell_iceberg"], dtype=np.int64)
+        out["cell"] = np.stack([np.asarray(g["cell_ix"], dtype=np.int64), np.asarray(g["cell_iz"], dtype=np.int64)], -1)
     return out

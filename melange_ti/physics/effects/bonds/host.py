@@ -397,7 +397,7 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
         return bad
     table = build(scene, bergs, pair_list) if scene.start is None else _start_table(scene, bergs)
     _, crowded = slots(bergs.count, table)
-    if crowded is not None and bergs.parent is not None:  # cells whose layers do not meet across a joint
+    if crowded is not None and bergs.parent is not None and scene.start is None:  # cells whose layers do not meet
         p = int(bergs.parent[crowded])
         if scene.shelf is not None:
             key, value = "shelf.cells", scene.shelf.cells
