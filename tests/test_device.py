@@ -293,7 +293,8 @@ def _compare_bonded(folder: Path, text: str, tol: float) -> dict[str, float]:
     """A bonded scene's device run against the CPU's (``_run_on_cpu_and_vulkan``, done): a
     bond's force carries the positions' rounding magnified by ``|x| / |d|`` (docs/bonds.md,
     Precision), so every dataset must be within ``tol`` of the CPU or within what moving every
-    initial x by one ulp does to the CPU's own run, whichever is larger (a third run, here)."""
+    initial x by one ulp (a ``[start]`` scene, whose positions are the file's: the ice's
+    density) does to the CPU's own run, whichever is larger (a third run, here)."""
     import tomllib
 
     from melange_ti.scene import dumps_toml
@@ -309,7 +310,7 @@ def _compare_bonded(folder: Path, text: str, tol: float) -> dict[str, float]:
     device = _differences(folder / "cpu.h5", folder / "vulkan.h5")
     own = _differences(folder / "cpu.h5", folder / "ulp.h5")
     bad = {k: (v, own[k]) for k, v in device.items() if v > max(tol, own[k])}
-    assert not bad, f"datasets off by more than {tol:g} and more than one ulp of x moves the CPU's (device, ulp): {bad}"
+    assert not bad, f"datasets off by more than {tol:g} and more than one ulp moves the CPU's (device, ulp): {bad}"
     assert max(own[f"snapshots/{k}"] for k in STATE) > 0  # the ulp moved the run
     return device
 

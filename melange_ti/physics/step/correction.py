@@ -40,6 +40,17 @@ def predicted_gap(a: ti.template(), i, j, px, pz, nx, nz, gap):
 
 
 @ti.func
+def kept(fx: ti.template(), a: ti.template(), i, j) -> ti.i32:
+    """1 if a named effect holds the overlap of the touching pair (i, j) (its ``kept`` term:
+    a bond beside a crevasse's walls), which the correction then leaves."""
+    out = 0
+    for e in ti.static(KEPT):
+        if ti.static(e.on(fx)):
+            out = out | ti.static(term_of(e, "kept"))(a, i, j)
+    return out
+
+
+@ti.func
 def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end, eager: ti.template()):
     """Remove the overlap left after the drift, split by inverse mass (pair centre fixed).
 
@@ -47,7 +58,8 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end, eager:
     so far along the normal; at the wall (j < 0, normal fixed) it is measured exactly from
     the discs. A body moved for the first time in this pass records its potential energy
     (``Body.POT_START``; with ``eager``, :func:`prepare_body` recorded it) and is marked
-    with the sweep (``BodyInt.PUSHED``); the pass books the energy change per body."""
+    with the sweep (``BodyInt.PUSHED``); the pass books the energy change per body. A pair
+    a named effect holds (:func:`kept`) is left as it is."""
     b = ti.static(a.b)
     _m1, inv1, _i1 = contact_mass(fx, a, i)
     inv2 = 0.0
@@ -58,7 +70,11 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end, eager:
     else:
         g = wall.gap(a, i)
     pushed = 0
-    if g < -TINY:
+    held = 0
+    if ti.static(any_on(KEPT, fx)):  # asked only of a pair that overlaps
+        if g < -TINY and j >= 0:
+            held = kept(fx, a, i, j)
+    if g < -TINY and held == 0:
         pushed = 1
         depth = -g
         if ti.static(not eager):
@@ -112,17 +128,6 @@ def prepare_body(fx: ti.template(), a: ti.template(), i, eager: ti.template()):
 
 
 @ti.func
-def kept(fx: ti.template(), a: ti.template(), i, j) -> ti.i32:
-    """1 if a named effect holds the overlap of the touching pair (i, j) (its ``kept`` term:
-    a bond beside a crevasse's walls), which the correction then leaves."""
-    out = 0
-    for e in ti.static(KEPT):
-        if ti.static(e.on(fx)):
-            out = out | ti.static(term_of(e, "kept"))(a, i, j)
-    return out
-
-
-@ti.func
 def sweep_body(fx: ti.template(), a: ti.template(), sweep, i, eager: ti.template()):
     """One sweep's pushes of body i's contacts (wall, then partners j > i ascending:
     :func:`.impulses.contact_range`; coloured: those of the colour under way,
@@ -135,12 +140,9 @@ def sweep_body(fx: ti.template(), a: ti.template(), sweep, i, eager: ti.template
         j, slot, _px, _pz, nx, nz, g_end = contact(fx, a, i, s)
         if in_pass(fx, a, i, slot):
             moved = a.bi[i, BodyInt.PUSHED]
-            held = 0
             if j >= 0:
                 moved = ti.max(moved, a.bi[j, BodyInt.PUSHED])
-                if ti.static(any_on(KEPT, fx)):
-                    held = kept(fx, a, i, j)
-            if moved >= since and held == 0:
+            if moved >= since:
                 pushed += push(fx, a, sweep, i, j, nx, nz, g_end, eager)
     return pushed
 

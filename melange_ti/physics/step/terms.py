@@ -16,7 +16,7 @@ refuses an effect whose terms have no module at import.
 from types import ModuleType
 
 from ..effects import REGISTRY
-from ..effects.base import Effect
+from ..effects.base import TERMS, Effect
 from ..effects.bonds import kernels as bonds
 from ..effects.terms import added_mass, buoyancy, drag, form_drag, gravity
 from ..effects.waves import kernels as waves
@@ -31,19 +31,8 @@ MODULES: dict[str, ModuleType] = {
     "bonds": bonds,
 }
 
-# the terms a module here must hold (an ``impulse`` term is the contact law's: .impulses.LAWS)
-LINKED_HERE = (
-    "force",
-    "offset_kick",
-    "added_inertia",
-    "after_kick",
-    "damp",
-    "post_drift",
-    "potential",
-    "joined",
-    "joined_wall",
-    "kept",
-)
+# the terms a module here must hold: every declared one but the contact law's ``impulse`` (.impulses.LAWS)
+LINKED_HERE = tuple(t for t in TERMS if t != "impulse")
 
 
 def module(effect: Effect) -> ModuleType | None:

@@ -146,11 +146,8 @@ def build(scene, bergs, pair_list) -> np.ndarray:
     joint, band = joints(scene, bergs, pair_list)
     rows = geometry(scene.physics.wall_x, bergs, pair_list, band)
     if joint.any():
-        n = len(pair_list)
-        whole = geometry(scene.physics.wall_x, bergs, pair_list)[:n, Bond.LEN]
-        rows[:n, Bond.TOUCHING] = np.where(rows[:n, Bond.LEN] < whole - MIN_OVERLAP, 1.0, 0.0)
-        keep = rows[:n, Bond.LEN] > MIN_OVERLAP
-        rows, joint = rows[:n][keep], joint[keep]
+        keep = rows[: len(pair_list), Bond.LEN] > MIN_OVERLAP
+        rows, joint = rows[: len(pair_list)][keep], joint[keep]
         if not rows.shape[0]:
             rows = geometry(scene.physics.wall_x, bergs, [])
     out = material(scene, bergs, rows)
@@ -201,7 +198,8 @@ def heights(bergs, piece: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def geometry(wall_x: float, bergs, pair_list, band: np.ndarray | None = None) -> np.ndarray:
     """Rows with each bond's pair and rest geometry (``GEOMETRY`` columns), intact; ``band``:
     each pair's intact heights ``(P, 2)`` (:func:`joints`), its face cut down to them (its
-    point the middle of what is left; its length 0 if nothing is)."""
+    point the middle of what is left; its length 0 if nothing is), and a face cut shorter
+    than the pair shares marked ``TOUCHING`` (the crevasse's walls beside it touch)."""
     rows = np.zeros((max(1, len(pair_list)), TABLE.size))
     rows[:, Bond.A] = -1.0
     rows[:, Bond.B] = -1.0
@@ -215,8 +213,10 @@ def geometry(wall_x: float, bergs, pair_list, band: np.ndarray | None = None) ->
     if wall.any():
         wp, wn, wl, _ = wall_faces(bergs, i[wall], wall_x)
         point[wall], normal[wall], length[wall] = wp, wn, wl
+    touching = np.zeros(len(pair_list))
     if band is not None and np.isfinite(band).any():
-        point, length = _within(point, normal, length, band)
+        point, cut = _within(point, normal, length, band)
+        touching, length = np.where(cut < length - MIN_OVERLAP, 1.0, 0.0), cut
     x = np.stack([np.asarray(bergs.x, dtype=np.float64), np.asarray(bergs.z, dtype=np.float64)], -1)
     th = np.asarray(bergs.theta, dtype=np.float64)
     xi = x[i]
@@ -237,6 +237,7 @@ def geometry(wall_x: float, bergs, pair_list, band: np.ndarray | None = None) ->
     rows[:n, Bond.DTH] = np.where(wall, -th[i], th[jj] - th[i])
     rows[:n, Bond.LEN] = length
     rows[:n, Bond.SPAN] = span
+    rows[:n, Bond.TOUCHING] = touching
     rows[:n, Bond.INTACT] = 1.0
     return rows
 
