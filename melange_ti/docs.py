@@ -95,19 +95,21 @@ def scenes_page() -> str:
             accepted = _cell(k.accepts.removeprefix("must be ")) if k.accepts else "any"
             out.append(f"| `{k.name}` | {_default(k.default)} | {_cell(k.units) or '—'} | {accepted} | {_cell(k.doc)} |")
         out.append("")
-    for e in REGISTRY:  # the arrays of tables an effect reads (Effect.tables): every key required
+    for e in REGISTRY:  # the arrays of tables an effect reads (Effect.tables): a key without a default is required
         for name, keys, doc in e.tables:
             out += [
                 f"## `[[{name}]]` — {_cell(doc)}",
                 "",
-                f"Read with `[[iceberg]]` tables only, whether or not the scene names `{e.name}`; every key is required.",
+                f"Read with `[[iceberg]]` tables only, whether or not the scene names `{e.name}`; a key without a "
+                "default is required.",
                 "",
-                "| key | units | accepted | meaning |",
-                "| --- | --- | --- | --- |",
+                "| key | default | units | accepted | meaning |",
+                "| --- | --- | --- | --- | --- |",
             ]
             for k in keys:
                 accepted = _cell(k.accepts.removeprefix("must be ")) if k.accepts else "any"
-                out.append(f"| `{k.name}` | {_cell(k.units) or '—'} | {accepted} | {_cell(k.doc)} |")
+                default = "required" if k.required else _default(k.default)
+                out.append(f"| `{k.name}` | {default} | {_cell(k.units) or '—'} | {accepted} | {_cell(k.doc)} |")
             out.append("")
     out += [
         "## Example",

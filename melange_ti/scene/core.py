@@ -329,9 +329,9 @@ def _effect_tables(doc: dict, icebergs: bool) -> tuple[tuple[str, tuple[dict, ..
         entries = []
         for k, t in enumerate(raw):
             clean = _checked(f"{name}[{k}]", t, keys)
-            missing = [q.name for q in keys if q.name not in clean]
+            missing = [q.name for q in keys if q.required and q.name not in clean]
             if missing:
-                names = " and ".join(q.name for q in keys)
+                names = " and ".join(q.name for q in keys if q.required)
                 raise error(f"{name}[{k}]", t, f"missing {', '.join(missing)} (give {names})")
             entries.append(clean)
         out.append((name, tuple(entries)))

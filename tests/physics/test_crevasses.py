@@ -14,6 +14,7 @@ so a shelf with no free front stays at rest.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -174,6 +175,67 @@ def test_a_shelf_of_two_layers_settles_to_carry_its_upper_layer(tmp_path):
 def test_bad_crevasses_are_refused_naming_the_key(shelf, key, words):
     with pytest.raises(SceneError) as e:
         loads(shelf_scene(shelf))
+    msg = str(e.value)
+    assert key in msg and words in msg and "\n" not in msg, msg
+
+
+def free_shelf(shelf: str) -> str:
+    """:func:`shelf_scene` without the wall's bond."""
+    return shelf_scene(shelf).replace("bonded_wall = true\n", "bonded_wall = false\n")
+
+
+def bonds_as_tables(shelf: str, per_joint: dict[int, tuple[float, float]]) -> str:
+    """The shelf of :func:`shelf_scene` (no wall bond) written out as ``[[iceberg]]`` tables
+    (each piece where the shelf puts it, with the shelf's ``cells``) bonded by ``[[bond]]``
+    tables, joint ``i`` (pieces ``i``, ``i + 1``) crevassed by ``per_joint[i] =
+    (crevasse_depth, basal_crevasse_depth)``."""
+    cells = re.search(r"cells = \[.*\]\n", shelf)
+    whole = loads(free_shelf(re.sub(r"cells = \[.*\]\n", "", shelf)))
+    b = whole.icebergs()
+    out = [shelf_scene("").split("[shelf]")[0]]
+    for i in range(b.count):
+        out.append(
+            f"[[iceberg]]\nx = {float(b.x[i])!r}\nz = {float(b.z[i])!r}\nwidth = {float(b.width[i])!r}\n"
+            f"thickness = {float(b.thickness[i])!r}\ntheta = {float(b.theta[i])!r}\n{cells.group(0) if cells else ''}"
+        )
+    for i, (d, base) in per_joint.items():
+        out.append(f"[[bond]]\na = {i}\nb = {i + 1}\ncrevasse_depth = {d!r}\nbasal_crevasse_depth = {base!r}\n")
+    return "\n".join(out)
+
+
+@pytest.mark.parametrize("cells", [1, 4])
+def test_a_bond_tables_crevasse_is_a_shelfs_crevasse(cells):
+    """``[[bond]] crevasse_depth`` and ``basal_crevasse_depth`` cut a joint as the shelf's keys
+    cut every joint (the same rows, to the bit), and a joint a table leaves whole stays whole:
+    each crevasse is its joint's own."""
+    grid = f"cells = [1, {cells}]\n" if cells > 1 else ""
+    shelf = f"crevasse_depth = 0.3\nbasal_crevasse_depth = 0.2\n{grid}"
+    _, _, want = table_of(free_shelf(shelf))
+    _, _, got = table_of(bonds_as_tables(shelf, {i: (0.3, 0.2) for i in range(3)}))
+    np.testing.assert_array_equal(got, want)
+    _, _, whole = table_of(free_shelf(grid))
+    _, _, mixed = table_of(bonds_as_tables(shelf, {0: (0.3, 0.2), 1: (0.0, 0.0), 2: (0.3, 0.2)}))
+
+    def across(t, i):  # the rows of joint i: a cell of piece i to a cell of piece i + 1
+        return t[(t[:, Bond.A] // cells == i) & (t[:, Bond.B] // cells == i + 1)]
+
+    for i, like in ((0, want), (1, whole), (2, want)):
+        assert across(like, i).shape[0] > 0
+        np.testing.assert_array_equal(across(mixed, i), across(like, i))
+
+
+@pytest.mark.parametrize(
+    "bond, key, words",
+    [
+        ("crevasse_depth = 1.0\n", "bond[0].crevasse_depth", "[0, 1)"),
+        ("basal_crevasse_depth = -0.2\n", "bond[0].basal_crevasse_depth", "[0, 1)"),
+        ("crevasse_depth = 0.6\nbasal_crevasse_depth = 0.4\n", "bond[0].basal_crevasse_depth", "less than 1"),
+    ],
+)
+def test_a_bond_tables_bad_crevasses_are_refused_naming_the_key(bond, key, words):
+    text = bonds_as_tables("", {}) + f"\n[[bond]]\na = 0\nb = 1\n{bond}"
+    with pytest.raises(SceneError) as e:
+        loads(text)
     msg = str(e.value)
     assert key in msg and words in msg and "\n" not in msg, msg
 

@@ -42,6 +42,7 @@ class Key:
     doc: str
     rule: Callable[[Any], bool] | None = None
     accepts: str = ""
+    required: bool = False  # a key of an array of tables ([[NAME]]) that has no default
 
     @classmethod
     def nonnegative(cls, name: str, default: Any, units: str, doc: str) -> Key:

@@ -139,8 +139,33 @@ PHYSICAL = (
 
 
 BOND_KEYS = (
-    Key("a", -1, "1", "0-based index of an [[iceberg]] table", lambda v: v >= 0, "must be >= 0"),
-    Key("b", -1, "1", "0-based index of another [[iceberg]] table that touches it at t = 0", lambda v: v >= 0, "must be >= 0"),
+    Key("a", -1, "1", "0-based index of an [[iceberg]] table", lambda v: v >= 0, "must be >= 0", required=True),
+    Key(
+        "b",
+        -1,
+        "1",
+        "0-based index of another [[iceberg]] table that touches it at t = 0",
+        lambda v: v >= 0,
+        "must be >= 0",
+        required=True,
+    ),
+    Key(
+        "crevasse_depth",
+        0.0,
+        "1",
+        "the fraction of the shared face's height open from its top at t = 0 (a surface crevasse at this joint; "
+        "the bond holds the ligament below it), with basal_crevasse_depth less than 1 in all",
+        lambda v: 0.0 <= v < 1.0,
+        "must be in [0, 1) (a joint cut through is no bond: leave the [[bond]] out)",
+    ),
+    Key(
+        "basal_crevasse_depth",
+        0.0,
+        "1",
+        "the fraction of the shared face's height open from its base at t = 0 (a basal crevasse at this joint)",
+        lambda v: 0.0 <= v < 1.0,
+        "must be in [0, 1) (a joint cut through is no bond: leave the [[bond]] out)",
+    ),
 )
 
 EFFECT = Effect(

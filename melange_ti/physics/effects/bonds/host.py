@@ -99,6 +99,14 @@ def pairs(scene, bergs) -> tuple[list[tuple[int, int]], tuple[str, object, str] 
         if p in seen:
             return [], (f"bond[{k}].b", b, f"icebergs {p[0]} and {p[1]} are bonded already by an earlier [[bond]]")
         seen.add(p)
+        top_open, base_open = t.get("crevasse_depth", 0.0), t.get("basal_crevasse_depth", 0.0)
+        if top_open + base_open >= 1.0:
+            return [], (
+                f"bond[{k}].basal_crevasse_depth",
+                base_open,
+                f"with bond[{k}].crevasse_depth = {top_open:g} the crevasses leave no ligament; the two must add up to "
+                "less than 1 (a joint cut through is no bond: leave the [[bond]] out)",
+            )
         joint = _joint_pairs(bergs, *p) if cells else ([p] if shared_face(bergs, *p) is not None else [])
         if not joint:
             return [], (
@@ -151,7 +159,8 @@ def build(scene, bergs, pair_list) -> np.ndarray:
         if not rows.shape[0]:
             rows = geometry(scene.physics.wall_x, bergs, [])
     out = material(scene, bergs, rows)
-    if joint.any() and scene.shelf.joint_strength != 1.0:  # the kept pairs are the first rows, in order
+    # the kept pairs are the first rows, in order
+    if joint.any() and scene.shelf is not None and scene.shelf.joint_strength != 1.0:
         out[np.flatnonzero(joint), Bond.ST] *= scene.shelf.joint_strength
         out[np.flatnonzero(joint), Bond.SS] *= scene.shelf.joint_strength
     return out
@@ -166,21 +175,39 @@ def joints(scene, bergs, pair_list) -> tuple[np.ndarray, np.ndarray]:
     band = np.tile([-np.inf, np.inf], (n, 1))
     joint = np.zeros(n, dtype=bool)
     sh = scene.shelf
-    if sh is None or not n or not sh.intact:
+    if not n or (sh is not None and not sh.intact):
         return joint, band
     pr = np.asarray(pair_list, dtype=np.int64)
     piece = bergs.parent if bergs.parent is not None else np.arange(bergs.count)
     pa, pb = piece[pr[:, 0]], np.where(pr[:, 1] >= 0, piece[np.maximum(pr[:, 1], 0)], -1)
     joint = (pr[:, 1] >= 0) & (pa != pb)
-    if not joint.any() or sh.crevasse_depth + sh.basal_crevasse_depth == 0.0:
+    top_open, base_open = _crevasses(scene, pa, pb)
+    if sh is None:  # [[bond]] tables: a joint is one a table crevasses
+        joint &= (top_open + base_open) > 0.0
+    if not joint.any() or not (top_open + base_open)[joint].any():
         return joint, band
     low, high = heights(bergs, piece)
     bottom = np.maximum(low[pa], low[np.maximum(pb, 0)])
     top = np.minimum(high[pa], high[np.maximum(pb, 0)])
     h = top - bottom
-    band[joint, 0] = (bottom + sh.basal_crevasse_depth * h)[joint]
-    band[joint, 1] = (top - sh.crevasse_depth * h)[joint]
+    band[joint, 0] = (bottom + base_open * h)[joint]
+    band[joint, 1] = (top - top_open * h)[joint]
     return joint, band
+
+
+def _crevasses(scene, pa: np.ndarray, pb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each pair's crevasse depths (from the top, from the base; fractions of the joint's
+    height) by the pieces it joins: a shelf's at every joint, or a ``[[bond]]`` table's own."""
+    sh = scene.shelf
+    if sh is not None:
+        return np.full(pa.size, sh.crevasse_depth), np.full(pa.size, sh.basal_crevasse_depth)
+    top_open, base_open = np.zeros(pa.size), np.zeros(pa.size)
+    for t in dict(scene.tables).get("bond", ()):
+        a, b = int(t["a"]), int(t["b"])
+        here = ((pa == a) & (pb == b)) | ((pa == b) & (pb == a))
+        top_open[here] = t.get("crevasse_depth", 0.0)
+        base_open[here] = t.get("basal_crevasse_depth", 0.0)
+    return top_open, base_open
 
 
 def heights(bergs, piece: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
