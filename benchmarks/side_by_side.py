@@ -12,6 +12,9 @@ old and new ``--repeats`` times so that drifts of the machine hit both alike:
                milliseconds per step of ``--steps`` more (``Model.advance``)
 ``waves``      the paper run with the waves effect (``scene.effects+=waves``), wall seconds
                of the process; ``--waves-duration`` (default 200) long
+``lattice``    the bonded lattice shelf of ``runs/shelf_breakup.toml``: 50 pieces x [4, 2] cells,
+               crevassed through half the thickness, at its bonds' step: ``--warm`` steps,
+               then the milliseconds per step of ``--steps`` more (``Model.advance``)
 ``start``      a warm start: ``python -m melange_ti run`` of 10 icebergs for one step, wall
                seconds of the process, after one untimed run per tree fills Taichi's cache
 
@@ -31,13 +34,13 @@ import tempfile
 import time
 from pathlib import Path
 
-N100K = """
+TIMED = """
 import sys, time
 from melange_ti import runtime, scene
 runtime.init("cpu", precision="f64")
 from melange_ti.model import Model
 import taichi as ti
-sc = scene.load(None, overrides=[("shelf.count", 100000), ("shelf.tilt", 0.05)])
+{scene}
 m = Model(sc)
 m.advance({warm})
 ti.sync()
@@ -46,6 +49,11 @@ m.advance({steps})
 ti.sync()
 print((time.perf_counter() - t0) / {steps} * 1e3)
 """
+N100K = 'sc = scene.load(None, overrides=[("shelf.count", 100000), ("shelf.tilt", 0.05)])'
+LATTICE = (
+    'over = [("shelf.count", 50), ("shelf.cells", [4, 2]), ("shelf.crevasse_depth", 0.5), ("time.dt", 0.002)]\n'
+    'sc = scene.load("{root}/runs/shelf_breakup.toml", overrides=over)'
+)
 
 
 def run_paper(tree: Path, duration: float | None, extra: tuple[str, ...] = ()) -> float:
@@ -58,8 +66,8 @@ def run_paper(tree: Path, duration: float | None, extra: tuple[str, ...] = ()) -
         return time.perf_counter() - t0
 
 
-def run_n100k(tree: Path, warm: int, steps: int) -> float:
-    code = N100K.format(warm=warm, steps=steps)
+def run_n100k(tree: Path, warm: int, steps: int, template: str = N100K) -> float:
+    code = TIMED.format(scene=template.format(root=Path(__file__).resolve().parents[1]), warm=warm, steps=steps)
     out = subprocess.run(
         [sys.executable, "-c", code], check=True, env={**os.environ, "PYTHONPATH": str(tree)}, capture_output=True, text=True
     )
@@ -94,6 +102,8 @@ def main() -> None:
                     value, unit = run_paper(tree.resolve(), a.waves_duration, waves), "s (whole process)"
                 elif case == "start":
                     value, unit = run_paper(tree.resolve(), 0.01, start), "s (whole process)"
+                elif case == "lattice":
+                    value, unit = run_n100k(tree.resolve(), a.warm, a.steps, LATTICE), "ms/step"
                 else:
                     value, unit = run_n100k(tree.resolve(), a.warm, a.steps), "ms/step"
                 rows.append({"case": case, "tree": label, "repeat": r, "value": value, "unit": unit})

@@ -237,6 +237,24 @@ def test_render_draws_the_intact_bonds_on_their_faces(bonded):
     np.testing.assert_allclose(np.abs(seg[:, 1, 1] - seg[:, 0, 1]), h[0], rtol=1e-12)
 
 
+@pytest.mark.parametrize("kept", ["TOUCHING", "TIP0"])
+def test_render_reads_a_file_written_before_the_last_bond_columns(bonded, tmp_path, kept):
+    """A run file written before the bond table kept ``TOUCHING`` (format 8) or the crack
+    tips' columns ``TIP0`` ... ``GCL`` (format 9) has the columns before them in
+    ``/bonds/rest``: drawn with the same faces."""
+    old = tmp_path / "old.h5"
+    shutil.copy(bonded, old)
+    with h5py.File(old, "r+") as f:
+        rest = f["bonds/rest"][()]
+        del f["bonds/rest"]
+        f["bonds/rest"] = rest[:, : REST.index(kept)]
+    data, before = read_run(old), read_run(bonded)
+    snaps = data["snapshots"]
+    got = render.BondFaces.read(old, data).segments(snaps["x"][-1], snaps["z"][-1], snaps["theta"][-1], float(snaps["time"][-1]))
+    want = render.BondFaces.read(bonded, before).segments(snaps["x"][-1], snaps["z"][-1], snaps["theta"][-1], float(snaps["time"][-1]))
+    np.testing.assert_array_equal(got, want)
+
+
 def test_a_frame_shows_its_bonds_and_not_the_broken_ones(bonded, tmp_path):
     """The same frame of the run with its bonds intact and with them all broken at t = 0
     differs, only in cyan (the bonds' colour); a run without bonds draws none."""

@@ -352,6 +352,8 @@ def test_a_crevasses_touching_walls_on_vulkan_match_the_cpu(tmp_path):
     (tests/physics/test_crevasses.py's case), then from that snapshot (``[start]``) for 100
     steps on each backend, f64: every dataset within 1e-12 of the CPU or within what one ulp of
     the ice's density does to the CPU's own run, with contacts in both."""
+    from melange_ti.physics.effects.bonds import REST
+
     from .physics.test_crevasses import soft_crevassed_shelf
 
     src = tmp_path / "src.h5"
@@ -370,8 +372,47 @@ def test_a_crevasses_touching_walls_on_vulkan_match_the_cpu(tmp_path):
     for arch in ("cpu", "vulkan"):
         with h5py.File(tmp_path / f"{arch}.h5", "r") as f:
             assert int(f["diagnostics/bonds_intact"][-1]) == 5
-            assert int(f["bonds/rest"][:, -1].sum()) == 4  # the four crevassed joints' walls touch
+            touching = f["bonds/rest"][:, REST.index("TOUCHING")]
+            assert int(touching.sum()) == 4  # the four crevassed joints' walls touch
             assert int(f["diagnostics/contacts"][()].sum()) > 0
+
+
+@pytest.mark.gpu
+@needs_vulkan
+def test_a_crack_running_by_its_fracture_energy_on_vulkan_matches_the_cpu(tmp_path):
+    """A crack that runs by the fracture-energy criterion on the device (issue 50: the tip
+    flags a bond's neighbour sets after it breaks, read at the next step's break check): the
+    edge-loaded slab of ``validation/fracture_convergence.py``, cells a quarter of its
+    thickness, crevassed through half of it, settled on the CPU under unbreakable bonds, then
+    ``[start]``ed with a fracture energy just below its tip's energy per length for 100 steps
+    on each backend, f64: the tip breaks in the first step and the bond below it later, on
+    both, at the same times, and every dataset within 1e-12 of the CPU or within what one ulp
+    of the ice's density does to the CPU's own run."""
+    from .physics.test_fracture_energy import fc
+
+    h = 0.25
+    src = tmp_path / "src.h5"
+    probe = fc.slab_text(h, 1.0, True, dt=1.0, duration=1.0)
+    dt = fc.beam.stable_dt(probe)
+    (tmp_path / "src.toml").write_text(fc.slab_text(h, 1.0, True, dt=dt, duration=30.0))
+    cmd = [sys.executable, "-m", "melange_ti", "run", "src.toml", "--out", "src.h5"]
+    subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=tmp_path, timeout=900)
+    columns = int(np.ceil(7.0 / fc.beam.beta_of(fc.E0, 1.0) / h))
+    st = fc.settled(src, load_body=columns)
+    per = float(np.max(np.where(st["stress"] > 0, st["energy"] / st["length"], 0.0)))
+    head = fc.slab_text(h, 1.0, True, dt=dt, duration=100 * dt).split("[[iceberg]]")[0]
+    head = head.replace("bond_damping = 0.05\n", f"bond_damping = 0.05\nfracture_energy = {0.999 * per!r}\n")
+    text = head.replace(f"snapshot_interval = {100 * dt / 4!r}", f"snapshot_interval = {25 * dt!r}")
+    text += f'\n[start]\nfile = "{src}"\ntime = 30.0\n'
+    _run_on_cpu_and_vulkan(tmp_path, text)
+    _compare_bonded(tmp_path, text, TOLERANCE["f64"])
+    broke = {}
+    for arch in ("cpu", "vulkan"):
+        with h5py.File(tmp_path / f"{arch}.h5", "r") as f:
+            bt = f["bonds/break_time"][()]
+            broke[arch] = bt[np.isfinite(bt)]
+    assert broke["cpu"].size == 2 and broke["cpu"].min() == 0.0
+    np.testing.assert_array_equal(np.sort(broke["vulkan"]), np.sort(broke["cpu"]))
 
 
 @pytest.mark.gpu

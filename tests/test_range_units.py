@@ -52,7 +52,7 @@ def _refusal(where: str, key, value) -> tuple[str, str]:
     if where == "iceberg":
         full, doc = f"iceberg[1].{key.name}", {"iceberg": [BERGS[0], {**BERGS[1], key.name: value}]}
     elif where in core.EFFECT_TABLES:  # an effect's [[NAME]] entries index [[iceberg]] tables
-        entry = {k.name: 0 if k.name == key.name else 1 for k in core.EFFECT_TABLES[where]}
+        entry = {k.name: 0 if k.name == key.name else 1 for k in core.EFFECT_TABLES[where] if k.required}  # indices
         full, doc = f"{where}[0].{key.name}", {"iceberg": BERGS, where: [{**entry, key.name: value}]}
     else:
         full, doc = f"{where}.{key.name}", {where: {key.name: value}}

@@ -58,6 +58,7 @@ LOAD_WIDTH = 0.5  # the load's width: a pressure P / 0.45 on x = 0 to 0.5 at eve
 CREVASSE_X = 4.0  # the crevassed joint (a multiple of every cell size), near pi / (4 beta) from the load
 CREVASSE_DEPTH = 0.5
 SIZES = (1.0, 0.5, 0.25, 0.125, 0.0625)
+G_C = 1e10 / (1420.7219 * 703868.0 / 0.91) / (703868.0 * 70.0)  # K_c^2 / E' of K_c = 0.1 MPa sqrt(m), in rho_w g w^2 at w = 70 m
 
 
 def slab_text(h: float, t: float, crevassed: bool, *, dt: float, duration: float, E: float = E0, length: float = 7.0) -> str:
@@ -135,6 +136,8 @@ def settled(path, load_body: int) -> dict:
         across=(np.abs(col["NU"]) > 0.5)[slab],
         fn=fn[slab],
         m=m[slab],
+        tip=(col["TIP0"] > 0.5)[slab],
+        row=np.flatnonzero(slab),
     )
 
 
@@ -205,13 +208,47 @@ def run(
     zmid = -R * t + t / 2
     moment = float(np.sum(st["fn"][joint] * (st["z"][joint] - zmid)) - np.sum(st["m"][joint]))
     row |= dict(joint_moment=moment, joint_moment_beam=P * float(np.interp(CREVASSE_X, xm, mb)), joint_bonds=int(joint.sum()))
+    # the coupled criterion the model runs with physics.fracture_energy (docs/bonds.md): energy at a crack's tip
+    # (TIP0: the crevasse's), stress elsewhere; with G_c of ice's K_c = 0.1 MPa sqrt(m) at w = 70 m
+    tip_per_len = np.where(st["tip"], per_len, 0.0)
+    by_stress = P * SIGMA_T / float(np.max(np.where(st["tip"], 0.0, st["stress"])))
+    by_energy = P * math.sqrt(G_C / float(tip_per_len.max())) if st["tip"].any() else math.inf
+    row |= dict(tips=int(st["tip"].sum()), p_coupled=min(by_stress, by_energy), coupled_at_tip=bool(by_energy < by_stress))
     if crevassed:
         k = 6.0 * abs(moment) / t**2 * math.sqrt(math.pi * CREVASSE_DEPTH * t) * tada_f(CREVASSE_DEPTH)
         # G = K^2 / E' = G_c at P_c: P_c / sqrt(G_c) = P sqrt(E') / K
         row |= dict(p_lefm_per_sqrt_gc=P * math.sqrt(Ep) / k)
+        row |= model_check(path, text, st, float(tip_per_len.max()), work / f"check_{h:g}_{length:g}_{dt_factor:g}")
     else:
-        row |= dict(p_lefm_per_sqrt_gc=float("nan"))
+        row |= dict(p_lefm_per_sqrt_gc=float("nan"), model_breaks_tip_first=False, model_holds_above=False)
     return row
+
+
+def model_check(path: Path, text: str, st: dict, per_tip: float, out: Path) -> dict:
+    """The model's own break check with ``physics.fracture_energy``: the settled slab restarted
+    with the tip's energy per length times 0.999 breaks the tip first, in the first step;
+    times 1.001, nothing breaks in a time unit (its tensile strength stays unbreakable)."""
+    import melange_ti
+    import melange_ti.scene
+    from melange_ti.io.hdf5 import read_run
+
+    settle = float(text.split("duration = ")[1].split("\n")[0])
+    got = {}
+    for factor in (0.999, 1.001):
+        head = text.split("[[iceberg]]")[0].replace(f"duration = {settle!r}", "duration = 1.0")
+        head = head.replace("bond_damping = 0.05\n", f"bond_damping = 0.05\nfracture_energy = {factor * per_tip!r}\n")
+        target = out.with_name(out.name + f"_{factor}.h5")
+        melange_ti.run(
+            melange_ti.scene.loads(head + f'\n[start]\nfile = "{path}"\ntime = {settle!r}\n'), out=str(target), overwrite=True
+        )
+        got[factor] = np.asarray(read_run(str(target))["bonds"]["break_time"])
+    bt = got[0.999]
+    tip_rows = st["row"][st["tip"]]
+    first = np.flatnonzero(bt == np.nanmin(bt)) if np.isfinite(bt).any() else np.array([], dtype=np.int64)
+    return dict(
+        model_breaks_tip_first=bool(first.size == 1 and first[0] in tip_rows and bt[first[0]] == 0.0),
+        model_holds_above=bool(np.all(np.isnan(got[1.001]))),
+    )
 
 
 CHECKS = ((0.125, 10.0, 1.0), (0.125, 7.0, 0.5))  # (cell, length * beta, step factor): a longer slab, half the step
@@ -231,8 +268,12 @@ def study(out_dir: Path, work=None) -> list[dict]:
                 f"{row['p_energy_per_sqrt_gc']:.4f} at x = {row['energy_bond_x']:.4f}, z = {row['energy_bond_z']:+.4f}; "
                 f"moment at x = {CREVASSE_X:g}: {row['joint_moment']:.5f} (beam {row['joint_moment_beam']:.5f})"
             )
+            line += f"; coupled (G_c {G_C:.3g}) P_c = {row['p_coupled']:.5f}{' at the tip' if row['coupled_at_tip'] else ''}"
             if crevassed:
-                line += f"; LEFM P_c / sqrt(G_c) = {row['p_lefm_per_sqrt_gc']:.4f}"
+                line += (
+                    f"; LEFM P_c / sqrt(G_c) = {row['p_lefm_per_sqrt_gc']:.4f}; the model breaks the tip first at 0.999: "
+                    f"{row['model_breaks_tip_first']}, holds at 1.001: {row['model_holds_above']}"
+                )
             print(line, flush=True)
             log.write(line + "\n")
     log.close()

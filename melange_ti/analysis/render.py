@@ -97,15 +97,16 @@ class BondFaces:
         rest = np.asarray(b["rest"], dtype=float)
         n = len(run["icebergs"]["width"])
         need = ("a", "break_time")
-        # a file written before the last column (TOUCHING) was kept has one column fewer
-        if any(k not in b for k in need) or rest.ndim != 2 or rest.shape[1] not in (len(REST) - 1, len(REST)):
+        # a file written before the last columns (TOUCHING, then TIP0 ... GCL) were kept has the ones before them
+        widths = (REST.index("TOUCHING"), REST.index("TIP0"), len(REST))
+        if any(k not in b for k in need) or rest.ndim != 2 or rest.shape[1] not in widths:
             raise OutputError(f"{path}: /bonds is not the bonds effect's table (columns {', '.join(REST)})")
         a = np.asarray(b["a"])
         if a.shape != (len(rest),) or np.any(~np.isfinite(a)) or np.any((a < 0) | (a >= n)):
             raise OutputError(f"{path}: /bonds/a holds values that are not iceberg indices 0..{n - 1}")
         if not np.all(np.isfinite(rest)):
             raise OutputError(f"{path}: /bonds/rest holds non-finite values (a corrupted file): nothing drawn")
-        return cls(a, {name: rest[:, i] for i, name in enumerate(REST)}, b["break_time"])
+        return cls(a, {name: rest[:, i] for i, name in enumerate(REST[: rest.shape[1]])}, b["break_time"])
 
     def intact(self, t: float) -> np.ndarray:
         return np.isnan(self.break_time) | (self.break_time > t)

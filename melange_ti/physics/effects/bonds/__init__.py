@@ -110,7 +110,17 @@ TABLE = Table(
             "1",
             "1: the pair's faces beside the bond touch through contacts while it holds (a crevassed joint's walls)",
         ),
+        Column(
+            "TIP0",
+            "constant",
+            "1",
+            "1: at t = 0 its face ends at a crevasse's edge inside its joint (it is a crack's tip from the start)",
+        ),
+        Column("NB1", "constant", "1", "the bond next to it along its face's line, one way (row in the bond table; -1: none)"),
+        Column("NB2", "constant", "1", "the bond next to it along its face's line, the other way (-1: none)"),
+        Column("GCL", "constant", "rho_w g w^2", "G_c times its face length: the energy that breaks it at a tip (0: off)"),
         Column("INTACT", "state", "1", "1 while the bond holds, 0 once broken"),
+        Column("TIP", "state", "1", "1 while it is a crack's tip: TIP0, or a bond next to it has broken (a step before)"),
         Column("AGE", "state", "1", "steps taken while intact (at a break: the step it broke at)"),
         Column("BREAK_SIG", "state", "rho_w g w", "tensile stress when it broke (0: intact)"),
         Column("BREAK_TAU", "state", "rho_w g w", "shear stress when it broke (0: intact)"),
@@ -211,6 +221,14 @@ EFFECT = Effect(
             STRESS,
             "a bond breaks when its shear force over t exceeds it (0.25 MPa at w = 70 m, or give shear_strength_pa "
             "in Pa; used with the bonds effect)",
+        ),
+        Key.nonnegative(
+            "fracture_energy",
+            0.0,
+            "rho_w g w^2",
+            "G_c: a bond at a crack's tip (a crevasse's, or a broken neighbour's along its line) breaks in tension "
+            "when the energy it holds reaches G_c times its face length, not by tensile_strength (0: off, every bond "
+            "by its strength; J/m^2 = value * 1025 * 9.81 * width_m^2; used with the bonds effect)",
         ),
         Key.nonnegative(
             "strength_size",

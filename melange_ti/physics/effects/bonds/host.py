@@ -151,13 +151,15 @@ def build(scene, bergs, pair_list) -> np.ndarray:
     a joint's bond is cut down to it, and a cell's bond wholly within a crevasse is not made.
     A bond cut shorter than its pair's shared face leaves the crevasse's walls beside it
     touching through contacts (``TOUCHING``: docs/bonds.md, Crevasses)."""
-    joint, band = joints(scene, bergs, pair_list)
+    joint, band, open_edge = joints(scene, bergs, pair_list)
     rows = geometry(scene.physics.wall_x, bergs, pair_list, band)
     if joint.any():
         keep = rows[: len(pair_list), Bond.LEN] > MIN_OVERLAP
         rows, joint = rows[: len(pair_list)][keep], joint[keep]
+        band, open_edge = band[keep], open_edge[keep]
         if not rows.shape[0]:
             rows = geometry(scene.physics.wall_x, bergs, [])
+    lines(rows, bergs, band, open_edge)
     out = material(scene, bergs, rows)
     # the kept pairs are the first rows, in order
     if joint.any() and scene.shelf is not None and scene.shelf.joint_strength != 1.0:
@@ -168,15 +170,17 @@ def build(scene, bergs, pair_list) -> np.ndarray:
 
 def joints(scene, bergs, pair_list) -> tuple[np.ndarray, np.ndarray]:
     """Which pairs join two pieces of a bonded shelf (not a cell to its piece's cell, not the
-    wall), and each pair's intact band of heights ``(P, 2)`` at t = 0: at a joint, from
+    wall), each pair's intact band of heights ``(P, 2)`` at t = 0: at a joint, from
     ``basal_crevasse_depth`` of the joint's height above its base to ``crevasse_depth`` of it
-    below its top (the joint's height: where both pieces reach); elsewhere unbounded."""
+    below its top (the joint's height: where both pieces reach); elsewhere unbounded; and
+    which of the band's two edges (base, top) is a crevasse's (``(P, 2)``, bool)."""
     n = len(pair_list)
     band = np.tile([-np.inf, np.inf], (n, 1))
     joint = np.zeros(n, dtype=bool)
+    open_edge = np.zeros((n, 2), dtype=bool)
     sh = scene.shelf
     if not n or (sh is not None and not sh.intact):
-        return joint, band
+        return joint, band, open_edge
     pr = np.asarray(pair_list, dtype=np.int64)
     piece = bergs.parent if bergs.parent is not None else np.arange(bergs.count)
     pa, pb = piece[pr[:, 0]], np.where(pr[:, 1] >= 0, piece[np.maximum(pr[:, 1], 0)], -1)
@@ -185,14 +189,16 @@ def joints(scene, bergs, pair_list) -> tuple[np.ndarray, np.ndarray]:
     if sh is None:  # [[bond]] tables: a joint is one a table crevasses
         joint &= (top_open + base_open) > 0.0
     if not joint.any() or not (top_open + base_open)[joint].any():
-        return joint, band
+        return joint, band, open_edge
     low, high = heights(bergs, piece)
     bottom = np.maximum(low[pa], low[np.maximum(pb, 0)])
     top = np.minimum(high[pa], high[np.maximum(pb, 0)])
     h = top - bottom
     band[joint, 0] = (bottom + base_open * h)[joint]
     band[joint, 1] = (top - top_open * h)[joint]
-    return joint, band
+    open_edge[:, 0] = joint & (base_open > 0.0)
+    open_edge[:, 1] = joint & (top_open > 0.0)
+    return joint, band, open_edge
 
 
 def _crevasses(scene, pa: np.ndarray, pb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -269,6 +275,51 @@ def geometry(wall_x: float, bergs, pair_list, band: np.ndarray | None = None) ->
     return rows
 
 
+def faces_at_start(rows: np.ndarray, bergs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each bond's face at t = 0 in the world frame: its middle, its normal, its length."""
+    on = rows[:, Bond.A] >= 0
+    i = np.where(on, rows[:, Bond.A], 0).astype(np.int64)
+    x, z, th = (np.asarray(v, dtype=np.float64) for v in (bergs.x, bergs.z, bergs.theta))
+    c, s = np.cos(th[i]), np.sin(th[i])
+    point = np.stack([x[i] + c * rows[:, Bond.UA] - s * rows[:, Bond.VA], z[i] + s * rows[:, Bond.UA] + c * rows[:, Bond.VA]], -1)
+    normal = np.stack([c * rows[:, Bond.NU] - s * rows[:, Bond.NV], s * rows[:, Bond.NU] + c * rows[:, Bond.NV]], -1)
+    return point, normal, rows[:, Bond.LEN]
+
+
+def lines(rows: np.ndarray, bergs, band: np.ndarray | None = None, open_edge: np.ndarray | None = None) -> None:
+    """Set (in place) each bond's neighbours along its face's line (``NB1``, ``NB2``: the bonds
+    whose faces continue it, lying on the same line and abutting it at t = 0: a layer's next
+    layer across one joint, a column's next column along one layer's face; -1: none) and
+    whether its face ends at a crevasse's edge inside its joint (``TIP0``, and ``TIP`` from it):
+    a crack's tip from the start (``band``, ``open_edge``: :func:`joints`)."""
+    on = np.flatnonzero(rows[:, Bond.A] >= 0)
+    rows[:, Bond.NB1] = rows[:, Bond.NB2] = -1.0
+    rows[:, Bond.TIP0] = rows[:, Bond.TIP] = 0.0
+    if not on.size:
+        return
+    point, normal, length = (v[on] for v in faces_at_start(rows, bergs))
+    flip = (normal[:, 0] < -1e-12) | ((np.abs(normal[:, 0]) <= 1e-12) & (normal[:, 1] < 0.0))
+    normal = np.where(flip[:, None], -normal, normal)
+    along = np.stack([-normal[:, 1], normal[:, 0]], -1)
+    angle = np.round(np.arctan2(normal[:, 1], normal[:, 0]), 9)
+    offset = np.round(np.sum(point * normal, -1), 7)
+    u = np.sum(point * along, -1)
+    order = np.lexsort((u, offset, angle))
+    same = (angle[order][1:] == angle[order][:-1]) & (offset[order][1:] == offset[order][:-1])
+    gap = u[order][1:] - u[order][:-1] - 0.5 * (length[order][1:] + length[order][:-1])
+    abut = same & (np.abs(gap) < MIN_OVERLAP)
+    lo, hi = on[order][:-1][abut], on[order][1:][abut]  # lo's face ends where hi's begins
+    rows[lo, Bond.NB2] = hi
+    rows[hi, Bond.NB1] = lo
+    if band is None or open_edge is None or not open_edge.any():
+        return
+    rise = 0.5 * length * np.abs(along[:, 1])
+    top, bottom = point[:, 1] + rise, point[:, 1] - rise
+    b, o = band[on], open_edge[on]
+    tip = (o[:, 1] & (np.abs(top - b[:, 1]) < MIN_OVERLAP)) | (o[:, 0] & (np.abs(bottom - b[:, 0]) < MIN_OVERLAP))
+    rows[on, Bond.TIP0] = rows[on, Bond.TIP] = np.where(tip, 1.0, 0.0)
+
+
 def _within(point: np.ndarray, normal: np.ndarray, length: np.ndarray, band: np.ndarray):
     """Each face (its middle ``point``, ``normal``, ``length``) cut down to the heights
     ``band``: the new middle and length (0: nothing left). A face that does not rise
@@ -319,6 +370,7 @@ def material(scene, bergs, rows: np.ndarray) -> np.ndarray:
     out[on, Bond.CB] = 2.0 * zeta * np.sqrt(kb * i_eff)
     out[on, Bond.ST] = p.tensile_strength * strength
     out[on, Bond.SS] = p.shear_strength * strength
+    out[on, Bond.GCL] = p.fracture_energy * length
     return out
 
 
@@ -423,6 +475,15 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
     pair_list, bad = pairs(scene, bergs) if scene.start is None else (_start_pairs(scene, bergs), None)
     if bad is not None:
         return bad
+    if scene.start is not None and scene.physics.fracture_energy > 0.0:
+        got = _read_start(scene)
+        if got is not None and got["rest"].shape[1] <= REST.index("NB2"):
+            return (
+                "physics.fracture_energy",
+                scene.physics.fracture_energy,
+                "must be 0 with a [start] from a run file written before the bonds kept their neighbours (it cannot "
+                "tell a crack's tips); start from the scene itself, or without fracture_energy",
+            )
     table = build(scene, bergs, pair_list) if scene.start is None else _start_table(scene, bergs)
     _, crowded = slots(bergs.count, table)
     if crowded is not None and bergs.parent is not None and scene.start is None:  # cells whose layers do not meet
@@ -500,8 +561,22 @@ def _start_table(scene, bergs) -> np.ndarray:
     rows[:, Bond.B] = -1.0
     for q, name in enumerate(GEOMETRY):
         rows[: rest.shape[0], getattr(Bond, name)] = rest[:, q]
-    if rest.shape[1] == len(REST):  # a file written before TOUCHING was kept has none: its walls never touched
+    written = REST[: rest.shape[1]]  # a file written before a column was kept has the ones before it
+    if "TOUCHING" in written:  # before it, no walls touched
         rows[: rest.shape[0], Bond.TOUCHING] = rest[:, REST.index("TOUCHING")]
+    rows[:, Bond.NB1] = rows[:, Bond.NB2] = -1.0
+    if "NB2" in written:  # the neighbours kept, renumbered; one broken by then makes the bond a tip
+        new = np.cumsum(keep) - 1
+        tip = rest[:, REST.index("TIP0")].copy()
+        for name in ("NB1", "NB2"):
+            nb = got["rest"][keep, REST.index(name)].astype(np.int64)
+            held = nb >= 0
+            alive = held.copy()
+            alive[held] = keep[nb[held]]
+            rows[: rest.shape[0], getattr(Bond, name)] = np.where(alive, new[np.maximum(nb, 0)], -1)
+            tip = np.where(held & ~alive, 1.0, tip)
+        rows[: rest.shape[0], Bond.TIP0] = rest[:, REST.index("TIP0")]
+        rows[: rest.shape[0], Bond.TIP] = tip
     rows[: rest.shape[0], Bond.INTACT] = 1.0
     return material(scene, bergs, rows)
 

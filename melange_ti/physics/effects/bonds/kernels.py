@@ -76,7 +76,14 @@ def update(a: ti.template(), r):
         gz = fn * nz + fs * sz
         ta = rax * gz - raz * gx - (kn - ks) * dn * ds + m
         tb = -(rbx * gz - rbz * gx) - m
-        if sig > own[r, Bond.ST] or tau > own[r, Bond.SS]:
+        # in tension by its strength; at a crack's tip (fracture_energy on) by the energy it holds
+        tensile = sig > own[r, Bond.ST]
+        if own[r, Bond.GCL] > 0.0:
+            if own[r, Bond.TIP] > 0.5:
+                tensile = False
+                if sig > 0.0:
+                    tensile = 0.5 * (fn * dn + fs * ds + m * dth) >= own[r, Bond.GCL]
+        if tensile or tau > own[r, Bond.SS]:
             own[r, Bond.INTACT] = 0.0
             own[r, Bond.BREAK_SIG] = sig
             own[r, Bond.BREAK_TAU] = tau
@@ -204,6 +211,25 @@ def post_drift(a: ti.template(), i):
         [b[i, Body.VX] - b[i, Body.BOND_V0X], b[i, Body.VZ] - b[i, Body.BOND_V0Z], b[i, Body.OM] - b[i, Body.BOND_V0W]]
     )
     b[i, Body.BOND_OFFSET] += 0.5 * dt * f.dot(dv)
+    _tips(a, i)
+
+
+@ti.func
+def _tips(a: ti.template(), i):
+    """Body i's bonds of which it is A (one writer each) become a crack's tip once a bond next
+    to them along their face's line has broken (``NB1``, ``NB2``): read at the next step's
+    break check, so no bond reads another's state as the same loop writes it."""
+    own = ti.static(a.own)
+    lo, _ = rows(a)
+    for k in ti.static(range(MAX_BONDS)):
+        r = ti.cast(a.b[i, Body.BOND_1 + k], ti.i32) - 1
+        if r >= 0:
+            if own[r, Bond.GCL] > 0.0 and own[r, Bond.TIP] < 0.5 and ti.cast(own[r, Bond.A], ti.i32) == i:
+                for q in ti.static((Bond.NB1, Bond.NB2)):
+                    nb = ti.cast(own[r, q], ti.i32)
+                    if nb >= 0:
+                        if own[lo + nb, Bond.INTACT] < 0.5:
+                            own[r, Bond.TIP] = 1.0
 
 
 @ti.func

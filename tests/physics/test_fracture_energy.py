@@ -1,0 +1,183 @@
+"""Fracture energy at a crack's tip (``physics.fracture_energy``; docs/bonds.md, "Strength and
+size"; issue 50, item 4): a bond at a crack's tip breaks in tension when the energy it holds
+reaches ``G_c`` times its face, not by its tensile strength; every other bond by its strength.
+
+What is derived, and asserted:
+
+* a bond's neighbours along its face's line are the bonds whose faces continue it (a
+  layer's next layer across one joint, a column's next column along one layer's face), each
+  the other's; a crevassed joint's tip is the bond whose face ends at the crevasse's edge;
+  with one cell per piece, the ligament's bond (its face cut: ``TOUCHING``);
+* the model's own break check: a slab settled under unbreakable bonds and restarted with
+  ``G_c`` a hair below the tip's energy per length breaks the tip in the first step, and the
+  crack then runs to the next bond along the joint, a later step (it becomes a tip once its
+  neighbour has broken); a hair above, nothing breaks. The energy is the one the study reads
+  (``validation/fracture_convergence.py``);
+* every kernel form gives the serial form's bits with cracks running, the budget keeps its
+  promise, and a ``[start]`` keeps the tips (a bond whose neighbour broke before the start
+  time is a tip);
+* with ``fracture_energy = 0`` (the default) the regression hashes hold: no bit moved.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+
+import melange_ti as mt
+from melange_ti.io.hdf5 import read_run
+from melange_ti.physics.effects.bonds import Bond
+from melange_ti.physics.effects.bonds.host import build, faces_at_start, pairs
+from melange_ti.scene import SceneError, loads
+
+from ..conftest import ROOT
+
+_spec = importlib.util.spec_from_file_location("fracture_convergence", ROOT / "validation" / "fracture_convergence.py")
+fc = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(fc)
+
+
+def table(text: str):
+    sc = loads(text)
+    b = sc.icebergs()
+    got, bad = pairs(sc, b)
+    assert bad is None
+    t = build(sc, b, got)
+    return b, t
+
+
+def test_a_bonds_neighbours_continue_its_face_and_a_crevasses_tip_is_where_its_face_ends():
+    h = 0.25
+    b, t = table(fc.slab_text(h, 1.0, True, dt=0.003, duration=0.01))
+    point, normal, length = faces_at_start(t, b)
+    for name in ("NB1", "NB2"):
+        nb = t[:, getattr(Bond, name)].astype(np.int64)
+        has = np.flatnonzero(nb >= 0)
+        assert has.size > 0
+        other = "NB2" if name == "NB1" else "NB1"
+        np.testing.assert_array_equal(t[nb[has], getattr(Bond, other)], has)  # each the other's
+        assert np.all(np.abs(np.abs(np.sum(normal[has] * normal[nb[has]], -1)) - 1) < 1e-12)  # parallel
+        d = point[nb[has]] - point[has]
+        assert np.all(np.abs(np.sum(d * normal[has], -1)) < 1e-9)  # on one line
+        np.testing.assert_allclose(np.hypot(*d.T), 0.5 * (length[has] + length[nb[has]]), atol=1e-9)  # abutting
+    joint = np.abs(point[:, 0] - fc.CREVASSE_X) < 1e-9
+    ligament = joint & (np.abs(normal[:, 0]) > 0.5)
+    assert ligament.sum() == 2  # half the thickness, cells a quarter of it
+    tips = np.flatnonzero(t[:, Bond.TIP0] == 1.0)
+    top_of_ligament = -fc.R + 1.0 - fc.CREVASSE_DEPTH - h / 2
+    assert tips.size == 1 and ligament[tips[0]] and point[tips[0], 1] == pytest.approx(top_of_ligament)
+    np.testing.assert_array_equal(t[:, Bond.TIP], t[:, Bond.TIP0])
+    # one cell per piece: the crevassed joints' bonds, cut to their ligament, are the tips
+    _, whole = table(fc.slab_text(1.0, 1.0, True, dt=0.003, duration=0.01))
+    np.testing.assert_array_equal(whole[:, Bond.TIP0], whole[:, Bond.TOUCHING])
+    assert whole[:, Bond.TIP0].sum() == 1
+
+
+@pytest.fixture(scope="module")
+def settled(tmp_path_factory):
+    """The crevassed slab of cells a quarter of its thickness, settled under its load with
+    unbreakable bonds: its file, scene text, step and the tip's energy per face length."""
+    work = tmp_path_factory.mktemp("tip")
+    h = 0.25
+    row = fc.run(h, True, work=work)
+    path = work / f"slab_{h:g}_1_7_1.h5"
+    st = fc.settled(path, load_body=row["columns"])
+    per = np.where(st["stress"] > 0, st["energy"] / st["length"], 0.0)
+    return path, fc.slab_text(h, 1.0, True, dt=row["dt"], duration=30.0), float(per.max())
+
+
+def restart(settled, factor: float, tmp_path, duration: float = 1.0):
+    path, text, per = settled
+    head = text.split("[[iceberg]]")[0].replace("duration = 30.0", f"duration = {duration}")
+    head = head.replace("snapshot_interval = 7.5", "snapshot_interval = 0.05")
+    head = head.replace("bond_damping = 0.05\n", f"bond_damping = 0.05\nfracture_energy = {factor * per!r}\n")
+    out = tmp_path / f"restart_{factor}.h5"
+    mt.run(loads(head + f'\n[start]\nfile = "{path}"\ntime = 30.0\n'), out, overwrite=True)
+    return read_run(out)
+
+
+def test_the_tip_breaks_when_its_energy_reaches_the_fracture_energy_and_the_crack_runs(settled, tmp_path):
+    r = restart(settled, 0.999, tmp_path)
+    bt = np.asarray(r["bonds"]["break_time"])
+    first = np.flatnonzero(bt == np.nanmin(bt))
+    assert first.size == 1
+    tip = int(first[0])
+    b, t = table(settled[1])
+    assert t[tip, Bond.TIP0] == 1.0 and bt[tip] == 0.0  # the first step
+    below = int(t[tip, Bond.NB1])
+    assert below >= 0 and np.isfinite(bt[below]) and bt[below] > bt[tip]  # the crack ran, a step or more later
+    assert np.sum(np.isfinite(bt)) == 2  # through the ligament, and no further: the rest hold by their strength
+    assert np.all(np.isnan(restart(settled, 1.001, tmp_path)["bonds"]["break_time"]))
+
+
+def cracking_shelf() -> str:
+    """The study's shelf (``runs/shelf_breakup.toml``; with :data:`KEYS`: N = 10, 2 x 2 cells a
+    piece, crevassed through half its thickness, strong bonds and a fracture energy its
+    front's capsize reaches at the tips: cracks start at the crevasses and run)."""
+    return (ROOT / "runs" / "shelf_breakup.toml").read_text()
+
+
+KEYS = [
+    ("shelf.count", 10),
+    ("shelf.crevasse_depth", 0.5),
+    ("shelf.cells", [2, 2]),
+    ("shelf.tilt", 0.2),
+    ("shelf.gap", 0.2),
+    ("time.duration", 30.0),
+    ("time.dt", 0.008),
+    ("physics.tensile_strength", 0.5),
+    ("physics.shear_strength", 0.5),
+    ("physics.fracture_energy", 2e-5),
+]
+
+
+def test_every_form_gives_the_serial_bits_with_cracks_running_and_the_budget_holds(tmp_path):
+    from melange_ti.energy import RESIDUAL_PROMISED, budget_series
+
+    from .scenes import every_form
+
+    text = cracking_shelf()
+    out = tmp_path / "cracking.h5"
+    mt.run(loads(text, KEYS), out, overwrite=True)
+    d = read_run(out)["diagnostics"]
+    assert 0 < d["bonds_intact"][-1] < d["bonds_intact"][0]
+    b = budget_series(d)
+    assert np.max(np.abs(b["residual"])) <= RESIDUAL_PROMISED * np.max(np.abs(b["released"]))
+    table0 = every_form(loads(text, KEYS), 3000)
+    assert np.sum(table0[:, Bond.TIP] - table0[:, Bond.TIP0]) > 0  # tips made by breaks, not only the crevasses'
+
+
+def test_a_start_keeps_the_tips_and_a_broken_neighbour_makes_one(settled, tmp_path):
+    """A ``[start]`` from the run whose crack went through the ligament, at a time after the
+    tip broke and before the next bond did: the next bond is a tip (its neighbour is gone),
+    its other neighbour renumbered with the rows kept."""
+    from melange_ti.model import Model
+
+    r = restart(settled, 0.999, tmp_path, duration=0.5)
+    bt = np.asarray(r["bonds"]["break_time"])
+    tip = int(np.nanargmin(bt))
+    _, t = table(settled[1])
+    below = int(t[tip, Bond.NB1])
+    times = np.asarray(r["snapshots"]["time"])
+    at = float(times[(times > bt[tip]) & (times <= bt[below])][0])  # a bond broken at t held in the state at t
+    path, text, per = settled
+    head = text.split("[[iceberg]]")[0].replace("bond_damping = 0.05\n", f"bond_damping = 0.05\nfracture_energy = {per!r}\n")
+    src = tmp_path / "restart_0.999.h5"
+    got = Model(loads(head + f'\n[start]\nfile = "{src}"\ntime = {at!r}\n')).effect("bonds").table0
+    kept = np.flatnonzero(np.arange(t.shape[0]) != tip)
+    renumber = {int(old): new for new, old in enumerate(kept)}
+    row = renumber[below]
+    assert got[row, Bond.TIP] == 1.0 and got[row, Bond.TIP0] == 0.0 and got[row, Bond.NB2] == -1.0
+    assert got[row, Bond.NB1] == renumber[int(t[below, Bond.NB1])] if t[below, Bond.NB1] >= 0 else got[row, Bond.NB1] == -1.0
+    rest = kept[kept != below]  # every other bond: a tip as it was from the start
+    np.testing.assert_array_equal(got[[renumber[int(k)] for k in rest], Bond.TIP], t[rest, Bond.TIP0])
+
+
+@pytest.mark.parametrize("value", [-1e-5])
+def test_a_negative_fracture_energy_is_refused_naming_the_key(value):
+    with pytest.raises(SceneError) as e:
+        loads(fc.slab_text(1.0, 1.0, True, dt=0.003, duration=0.01), [("physics.fracture_energy", value)])
+    msg = str(e.value)
+    assert "physics.fracture_energy" in msg and ">= 0" in msg and "\n" not in msg, msg
