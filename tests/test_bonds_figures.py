@@ -251,7 +251,9 @@ def test_render_reads_a_file_written_before_the_last_bond_columns(bonded, tmp_pa
     data, before = read_run(old), read_run(bonded)
     snaps = data["snapshots"]
     got = render.BondFaces.read(old, data).segments(snaps["x"][-1], snaps["z"][-1], snaps["theta"][-1], float(snaps["time"][-1]))
-    want = render.BondFaces.read(bonded, before).segments(snaps["x"][-1], snaps["z"][-1], snaps["theta"][-1], float(snaps["time"][-1]))
+    want = render.BondFaces.read(bonded, before).segments(
+        snaps["x"][-1], snaps["z"][-1], snaps["theta"][-1], float(snaps["time"][-1])
+    )
     np.testing.assert_array_equal(got, want)
 
 
