@@ -76,3 +76,32 @@ def test_both_forms_from_the_command_line_exit_with_status_2(tmp_path, capsys):
     assert code == 2 and len(err.splitlines()) == 1, err
     assert "physics.tensile_strength_pa" in err and "physics.tensile_strength" in err and "Traceback" not in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("width_m", [70.0, 250.0])
+def test_a_fracture_energy_in_joules_per_square_metre_is_the_models_unit(width_m):
+    """``fracture_energy_jm2`` (an energy per unit crack area, J/m^2) at ``width_m`` gives
+    ``J/m^2 / (1025 * 9.81 * width_m^2)``: the model's unit ``rho_w g w^2`` in J/m^2."""
+    unit = 1025.0 * 9.81 * width_m**2
+    assert _physics({"fracture_energy_jm2": 9.1}, width_m).fracture_energy == 9.1 / unit
+    q = _physics({}, width_m, overrides=[("physics.fracture_energy_jm2", 9.1)])
+    assert q.fracture_energy == 9.1 / unit
+
+
+@pytest.mark.parametrize(
+    ("physics", "key", "words"),
+    [
+        (
+            {"fracture_energy": 1e-7, "fracture_energy_jm2": 5.0},
+            "physics.fracture_energy_jm2",
+            "given with physics.fracture_energy",
+        ),
+        ({"fracture_energy_jm2": -1.0}, "physics.fracture_energy_jm2", "must be >= 0 J/m^2"),
+        ({"tensile_strength_jm2": 1.0}, "physics.tensile_strength_jm2", "unknown key"),
+    ],
+)
+def test_a_bad_fracture_energy_in_joules_is_refused_naming_the_key(physics, key, words):
+    with pytest.raises(SceneError) as err:
+        _physics(physics)
+    message = str(err.value)
+    assert "\n" not in message and key in message and words in message, message

@@ -22,7 +22,7 @@ from ..io.hdf5 import read_group
 from ..physics.effects import BY_NAME as EFFECT_DECLS
 from ..physics.effects import NAMES as EFFECTS
 from ..physics.effects import PAPER_EFFECTS, Effects, Key, hosts
-from ..physics.effects.base import PA_SUFFIX, STRESS, pascals
+from ..physics.effects.base import SI_TWINS
 from . import keys as K
 from .errors import SceneError, error, fmt, one_line, unit_words, with_units
 from .initial import (
@@ -231,26 +231,32 @@ def _table(doc: dict, name: str, keys: tuple[Key, ...]) -> dict:
     return _checked(name, raw, keys)
 
 
-def _stresses_in_pa(doc: dict, width_m: float) -> None:
-    """``[physics] NAME_pa``, a stress key given in Pa, becomes ``NAME`` in the model's unit
-    ``rho_w g w`` at ``scene.width_m`` (in place); both forms of one key are refused together."""
+def _si_twins(doc: dict, width_m: float) -> None:
+    """``[physics] NAME_pa`` (a stress in Pa) or ``NAME_jm2`` (an energy per unit area in
+    J/m^2), a key given in SI, becomes ``NAME`` in the model's unit (``rho_w g w``, ``rho_w g
+    w^2``) at ``scene.width_m`` (in place); both forms of one key are refused together."""
     raw = doc.get("physics")
     if not isinstance(raw, dict):
         return
     for key in K.PHYSICS:
-        pa = key.name + PA_SUFFIX
-        if key.units != STRESS or pa not in raw:
+        if key.units not in SI_TWINS:
             continue
-        full = f"physics.{pa}"
+        suffix, unit, per = SI_TWINS[key.units]
+        si = key.name + suffix
+        if si not in raw:
+            continue
+        full = f"physics.{si}"
         if key.name in raw:
             raise error(
-                full, raw[pa], f"given with physics.{key.name}: give one ({key.name} in {STRESS}, or {pa} in Pa at scene.width_m)"
+                full,
+                raw[si],
+                f"given with physics.{key.name}: give one ({key.name} in {key.units}, or {si} in {unit} at scene.width_m)",
             )
-        value = _check_type(full, raw[pa], float(key.default))
+        value = _check_type(full, raw[si], float(key.default))
         if key.rule is not None and not key.rule(value):
-            raise error(full, value, f"{key.accepts} Pa")
-        raw[key.name] = value / pascals(width_m)
-        del raw[pa]
+            raise error(full, value, f"{key.accepts} {unit}")
+        raw[key.name] = value / per(width_m)
+        del raw[si]
 
 
 def _scene_table(doc: dict) -> dict:
@@ -460,7 +466,7 @@ def from_dict(
             arrays = ", ".join(f"[[{s}]]" for s in ("iceberg", *EFFECT_TABLES))
             raise SceneError(f"[{one_line(str(key))}]: unknown section (known: {known}, {arrays})")
     head = _scene_table(doc)
-    _stresses_in_pa(doc, head["width_m"])
+    _si_twins(doc, head["width_m"])
     parts = {key: cls(**_table(doc, key, getattr(K, key.upper()))) for key, cls in CLASSES.items()}
     table = _iceberg_table(doc)
     start = _start_table(doc, base)

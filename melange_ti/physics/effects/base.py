@@ -18,10 +18,13 @@ from typing import Any
 from ..data.columns import Column, Table
 
 # A stress in the model's unit rho_w g w: such a [physics] key may also be given in Pa, as the
-# same name with PA_SUFFIX, converted with scene.width_m (pascals); both forms of one key are
+# same name with PA_SUFFIX, converted with scene.width_m (pascals); an energy per unit area (a
+# fracture energy) in rho_w g w^2 likewise in J/m^2 with JM2_SUFFIX; both forms of one key are
 # refused together (melange_ti.scene.core)
 STRESS = "rho_w g w"
 PA_SUFFIX = "_pa"
+ENERGY_PER_AREA = "rho_w g w^2"
+JM2_SUFFIX = "_jm2"
 RHO_W_SI = 1025.0  # kg m^-3
 G_SI = 9.81  # m s^-2
 
@@ -29,6 +32,15 @@ G_SI = 9.81  # m s^-2
 def pascals(width_m: float) -> float:
     """The model's stress unit ``rho_w g w`` in Pa for icebergs ``width_m`` metres wide."""
     return RHO_W_SI * G_SI * width_m
+
+
+def joules_per_m2(width_m: float) -> float:
+    """The model's energy per unit area ``rho_w g w^2`` in J/m^2 for icebergs ``width_m`` wide."""
+    return pascals(width_m) * width_m
+
+
+# the model's units a [physics] key may be given in SI instead: units -> (suffix, SI unit, SI per model unit)
+SI_TWINS = {STRESS: (PA_SUFFIX, "Pa", pascals), ENERGY_PER_AREA: (JM2_SUFFIX, "J/m^2", joules_per_m2)}
 
 
 @dataclass(frozen=True)

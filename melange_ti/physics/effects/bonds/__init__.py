@@ -60,7 +60,7 @@ from __future__ import annotations
 import math
 
 from ...data.columns import Column, E, Table
-from ..base import G_SI, RHO_W_SI, STRESS, Dataset, Effect, Key, Quantity, pascals  # noqa: F401  (G_SI, RHO_W_SI: this module's names)
+from ..base import ENERGY_PER_AREA, G_SI, RHO_W_SI, STRESS, Dataset, Effect, Key, Quantity, pascals  # noqa: F401  (G_SI, RHO_W_SI: this module's names)
 
 MAX_BONDS = 4  # bonds per iceberg (body columns BOND_1 ...): one per face of a rectangle
 POISSON = 0.3  # Poisson's ratio of ice: the default of physics.poisson_ratio
@@ -225,10 +225,11 @@ EFFECT = Effect(
         Key.nonnegative(
             "fracture_energy",
             0.0,
-            "rho_w g w^2",
+            ENERGY_PER_AREA,
             "G_c: a bond at a crack's tip (a crevasse's, or a broken neighbour's along its line) breaks in tension "
             "when the energy it holds reaches G_c times its face length, not by tensile_strength (0: off, every bond "
-            "by its strength; J/m^2 = value * 1025 * 9.81 * width_m^2; used with the bonds effect)",
+            "by its strength; J/m^2 = value * 1025 * 9.81 * width_m^2, or give fracture_energy_jm2 in J/m^2; used with "
+            "the bonds effect)",
         ),
         Key.nonnegative(
             "strength_size",
