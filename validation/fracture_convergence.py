@@ -1,7 +1,7 @@
 """Which breaking criterion converges as the cells shrink (issue 50, item 4): a floating slab
-loaded at its free edge, intact and with one crevasse, at four cell sizes (three halvings).
+loaded at its free edge, intact and with one crevasse, at five cell sizes (four halvings).
 
-    python validation/fracture_convergence.py --out validation/results/fracture_convergence   # ~3 min on one core
+    python validation/fracture_convergence.py --out validation/results/fracture_convergence   # ~2 min on one core
 
 The slab (thickness ``t = 1``, the default modulus and Poisson's ratio, density ratio 0.8946)
 runs from its free face at x = 0 for ``7 / beta``; it is cut into square cells of side ``h``
@@ -97,9 +97,10 @@ def loads(h: float) -> int:
 
 
 def settled(path, load_body: int) -> dict:
-    """``load_body``: the first load block's [[iceberg]] index (the slab's columns are below it)."""
     """Each slab bond's tensile stress, energy, crack length, x and height at t = 0, and its
-    normal force and moment, in the last snapshot (as the break check reads them)."""
+    normal force and moment, in the last snapshot (as the break check reads them); whether it is
+    a crack's tip from the start and its row. ``load_body``: the first load block's
+    [[iceberg]] index (the slab's columns are the ones below it)."""
     from melange_ti.io.hdf5 import read_run
     from melange_ti.physics.effects.bonds import REST
 

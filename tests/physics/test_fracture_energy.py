@@ -16,7 +16,11 @@ What is derived, and asserted:
 * every kernel form gives the serial form's bits with cracks running, the budget keeps its
   promise, and a ``[start]`` keeps the tips (a bond whose neighbour broke before the start
   time is a tip);
-* with ``fracture_energy = 0`` (the default) the regression hashes hold: no bit moved.
+* a bond's neighbours do not reach across a crevasse; a crevasse on a horizontal joint, and a
+  fracture energy with a ``[start]`` from a file that cannot tell the tips, are refused.
+
+With ``fracture_energy = 0`` (the default) no bit moves: the regression hashes
+(``tests/regression``) hold them.
 """
 
 from __future__ import annotations
@@ -181,3 +185,74 @@ def test_a_negative_fracture_energy_is_refused_naming_the_key(value):
         loads(fc.slab_text(1.0, 1.0, True, dt=0.003, duration=0.01), [("physics.fracture_energy", value)])
     msg = str(e.value)
     assert "physics.fracture_energy" in msg and ">= 0" in msg and "\n" not in msg, msg
+
+
+SHELF = (
+    '[scene]\neffects = ["gravity", "buoyancy", "drag", "collisions", "wall", "bonds"]\n'
+    "[time]\ndt = 0.0005\nduration = 0.01\n[output]\nsnapshot_interval = 0.005\n"
+    "[shelf]\ncount = 3\nbonded = true\nbonded_wall = true\ncells = [2, 4]\ncrevasse_depth = 0.6\n"
+)
+
+
+def test_no_neighbours_across_a_crevasse():
+    """Two layers' faces that meet at a joint are neighbours only where the joint's ice is whole
+    at the point they meet: below the crevasse, not in it (cells 0.35 high, the crevasse open
+    over the top 0.6 of 1.4: the joint's bond in the second layer is cut to its lower 0.21)."""
+    b, t = table(SHELF)
+    point, normal, _ = faces_at_start(t, b)
+    layer = (np.abs(normal[:, 1]) > 0.5) & (np.abs(point[:, 0] - 0.75) < 1e-9)  # piece 0's last column's layer faces
+    z_top = point[:, 1].max() + 0.175  # the shelf's top
+    for r in np.flatnonzero(layer):
+        nbs = [int(t[r, c]) for c in (Bond.NB1, Bond.NB2) if t[r, c] >= 0]
+        within = [q for q in nbs if point[q, 0] < 0.75]  # its own piece's first column
+        across = [q for q in nbs if point[q, 0] > 0.75]  # the next piece's first column
+        assert len(within) == 1 and point[within[0], 0] == pytest.approx(0.25)
+        in_crevasse = point[r, 1] > z_top - 0.6 * 1.4
+        assert (not across) == in_crevasse, (point[r], across)
+        if across:
+            assert point[across[0], 0] == pytest.approx(1.25) and point[across[0], 1] == pytest.approx(point[r, 1])
+    assert np.flatnonzero(t[:, Bond.TIP0]).size == 1  # the cut second layer's joint bond
+
+
+def test_a_crevasse_on_a_horizontal_joint_is_refused():
+    text = (
+        '[scene]\neffects = ["gravity", "buoyancy", "bonds"]\n[time]\ndt = 0.001\nduration = 0.01\n'
+        "[[iceberg]]\nx = 0.0\nz = -0.6\nwidth = 1.0\nthickness = 0.5\n"
+        "[[iceberg]]\nx = 0.0\nz = -0.1\nwidth = 1.0\nthickness = 0.5\n"
+        "[[bond]]\na = 0\nb = 1\ncrevasse_depth = 0.3\n"
+    )
+    with pytest.raises(SceneError) as e:
+        loads(text)
+    msg = str(e.value)
+    assert msg.startswith("bond[0].crevasse_depth = 0.3: ") and "horizontal" in msg and "\n" not in msg, msg
+
+
+def test_a_start_from_a_file_that_cannot_tell_the_tips_is_refused_a_fracture_energy(tmp_path):
+    """A run file written before the bonds kept their neighbours (its ``/bonds/rest`` as wide
+    as format 9's), and a run ``[start]``ed from one without a fracture energy, cannot tell a
+    crack's tips: a ``[start]`` from either with ``fracture_energy`` is refused in one line
+    naming the key; without one it runs."""
+    import h5py
+
+    from melange_ti.physics.effects.bonds import REST
+
+    src = tmp_path / "src.h5"
+    mt.run(loads(SHELF), src, overwrite=True)
+    with h5py.File(src, "r+") as f:
+        rest = f["bonds/rest"][()]
+        del f["bonds/rest"]
+        f["bonds/rest"] = rest[:, : REST.index("TIP0")]
+    head = SHELF.split("[shelf]")[0]
+
+    def start(path, energy):
+        return loads(
+            head.replace("[time]", f"[physics]\nfracture_energy = {energy}\n[time]") + f'[start]\nfile = "{path}"\ntime = 0.01\n'
+        )
+
+    for path in (src, tmp_path / "again.h5"):
+        with pytest.raises(SceneError) as e:
+            start(path, 1e-6)
+        msg = str(e.value)
+        assert msg.startswith("physics.fracture_energy = ") and "[start]" in msg and "\n" not in msg, msg
+        if path == src:
+            mt.run(start(src, 0.0), tmp_path / "again.h5", overwrite=True)

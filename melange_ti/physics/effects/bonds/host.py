@@ -17,6 +17,9 @@ from . import GEOMETRY, MAX_BONDS, MIN_OVERLAP, REST, TABLE, TOUCH, Bond, weibul
 # ---------------------------------------------------------------- geometry at t = 0
 
 
+UNKNOWN = -2.0  # NB1 / NB2 of a bond whose neighbours a [start]'s file could not tell
+
+
 def shared_faces(bergs, i: np.ndarray, j: np.ndarray):
     """``(point (P, 2), normal from i to j (P, 2), length (P,), found (P,))`` of the face each
     pair of icebergs ``i[k], j[k]`` shares at t = 0: antiparallel faces at most :data:`TOUCH`
@@ -115,6 +118,16 @@ def pairs(scene, bergs) -> tuple[list[tuple[int, int]], tuple[str, object, str] 
                 f"icebergs {p[0]} and {p[1]} share no face at t = 0 (bonded faces must face each other within "
                 f"{TOUCH:g} w and overlap)",
             )
+        if top_open + base_open > 0.0:
+            ij = np.asarray(joint, dtype=np.int64)
+            if np.all(np.abs(shared_faces(bergs, ij[:, 0], ij[:, 1])[1][:, 0]) < 1e-9):  # the faces do not rise
+                key = "crevasse_depth" if top_open > 0.0 else "basal_crevasse_depth"
+                return [], (
+                    f"bond[{k}].{key}",
+                    t.get(key),
+                    f"icebergs {p[0]} and {p[1]} share a horizontal face: a crevasse opens a joint from its top or "
+                    "its base, so it needs a joint that rises (side by side); leave it out",
+                )
         out += joint
     return out, None
 
@@ -165,10 +178,11 @@ def build(scene, bergs, pair_list) -> np.ndarray:
     if joint.any() and scene.shelf is not None and scene.shelf.joint_strength != 1.0:
         out[np.flatnonzero(joint), Bond.ST] *= scene.shelf.joint_strength
         out[np.flatnonzero(joint), Bond.SS] *= scene.shelf.joint_strength
+        out[np.flatnonzero(joint), Bond.GCL] *= scene.shelf.joint_strength**2  # G ~ s^2 / E' at one modulus
     return out
 
 
-def joints(scene, bergs, pair_list) -> tuple[np.ndarray, np.ndarray]:
+def joints(scene, bergs, pair_list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Which pairs join two pieces of a bonded shelf (not a cell to its piece's cell, not the
     wall), each pair's intact band of heights ``(P, 2)`` at t = 0: at a joint, from
     ``basal_crevasse_depth`` of the joint's height above its base to ``crevasse_depth`` of it
@@ -288,29 +302,34 @@ def faces_at_start(rows: np.ndarray, bergs) -> tuple[np.ndarray, np.ndarray, np.
 
 def lines(rows: np.ndarray, bergs, band: np.ndarray | None = None, open_edge: np.ndarray | None = None) -> None:
     """Set (in place) each bond's neighbours along its face's line (``NB1``, ``NB2``: the bonds
-    whose faces continue it, lying on the same line and abutting it at t = 0: a layer's next
-    layer across one joint, a column's next column along one layer's face; -1: none) and
-    whether its face ends at a crevasse's edge inside its joint (``TIP0``, and ``TIP`` from it):
-    a crack's tip from the start (``band``, ``open_edge``: :func:`joints`)."""
+    whose faces continue it, lying on the same line and abutting it at t = 0, with the ice
+    bonded across the point where they meet: a layer's next layer across one joint, a column's
+    next column along one layer's face, not across a crevasse; -1: none) and whether its face
+    ends at a crevasse's edge inside its joint (``TIP0``, and ``TIP`` from it): a crack's tip
+    from the start (``band``, ``open_edge``: :func:`joints`)."""
     on = np.flatnonzero(rows[:, Bond.A] >= 0)
     rows[:, Bond.NB1] = rows[:, Bond.NB2] = -1.0
     rows[:, Bond.TIP0] = rows[:, Bond.TIP] = 0.0
     if not on.size:
         return
-    point, normal, length = (v[on] for v in faces_at_start(rows, bergs))
+    every = faces_at_start(rows, bergs)
+    point, normal, length = (v[on] for v in every)
     flip = (normal[:, 0] < -1e-12) | ((np.abs(normal[:, 0]) <= 1e-12) & (normal[:, 1] < 0.0))
     normal = np.where(flip[:, None], -normal, normal)
     along = np.stack([-normal[:, 1], normal[:, 0]], -1)
-    angle = np.round(np.arctan2(normal[:, 1], normal[:, 0]), 9)
-    offset = np.round(np.sum(point * normal, -1), 7)
+    line = _groups(np.arctan2(normal[:, 1], normal[:, 0]), 1e-9)  # one direction, then one line of it
+    line = _groups(np.sum(point * normal, -1), MIN_OVERLAP, line)
     u = np.sum(point * along, -1)
-    order = np.lexsort((u, offset, angle))
-    same = (angle[order][1:] == angle[order][:-1]) & (offset[order][1:] == offset[order][:-1])
+    order = np.lexsort((u, line))
+    same = line[order][1:] == line[order][:-1]
     gap = u[order][1:] - u[order][:-1] - 0.5 * (length[order][1:] + length[order][:-1])
-    abut = same & (np.abs(gap) < MIN_OVERLAP)
-    lo, hi = on[order][:-1][abut], on[order][1:][abut]  # lo's face ends where hi's begins
-    rows[lo, Bond.NB2] = hi
-    rows[hi, Bond.NB1] = lo
+    lo, hi = on[order][:-1], on[order][1:]  # lo's face ends where hi's begins
+    keep = same & (np.abs(gap) < MIN_OVERLAP)
+    ends = order[:-1][keep]  # lo's place in point, normal, length
+    meet = point[ends] + along[ends] * (0.5 * length[ends])[:, None]
+    keep[keep] = _bonded_across(rows, lo[keep], hi[keep], meet, every)
+    rows[lo[keep], Bond.NB2] = hi[keep]
+    rows[hi[keep], Bond.NB1] = lo[keep]
     if band is None or open_edge is None or not open_edge.any():
         return
     rise = 0.5 * length * np.abs(along[:, 1])
@@ -318,6 +337,48 @@ def lines(rows: np.ndarray, bergs, band: np.ndarray | None = None, open_edge: np
     b, o = band[on], open_edge[on]
     tip = (o[:, 1] & (np.abs(top - b[:, 1]) < MIN_OVERLAP)) | (o[:, 0] & (np.abs(bottom - b[:, 0]) < MIN_OVERLAP))
     rows[on, Bond.TIP0] = rows[on, Bond.TIP] = np.where(tip, 1.0, 0.0)
+
+
+def _groups(value: np.ndarray, tol: float, within: np.ndarray | None = None) -> np.ndarray:
+    """Group labels of ``value`` (within the groups ``within``, if given): sorted, a new group
+    wherever the next differs by more than ``tol`` (so no rounding splits a group at a digit)."""
+    within = np.zeros(value.size, dtype=np.int64) if within is None else within
+    order = np.lexsort((value, within))
+    new = np.ones(value.size, dtype=bool)
+    new[1:] = (within[order][1:] != within[order][:-1]) | (np.diff(value[order]) > tol)
+    label = np.empty(value.size, dtype=np.int64)
+    label[order] = np.cumsum(new)
+    return label
+
+
+def _bonded_across(rows: np.ndarray, r1: np.ndarray, r2: np.ndarray, meet: np.ndarray, faces: tuple) -> np.ndarray:
+    """Whether the ice is whole where the faces of bonds ``r1`` and ``r2`` meet (at ``meet``,
+    ``(P, 2)``): a bond at t = 0 joins an iceberg of one to an iceberg of the other (the wall
+    aside) and its face reaches that point, so no crevasse lies between them. ``faces``: every
+    row's :func:`faces_at_start`."""
+    point, normal, length = faces
+    ends = rows[:, [Bond.A, Bond.B]].astype(np.int64)
+    n = int(ends.max()) + 2
+    real = np.flatnonzero((ends[:, 0] >= 0) & (ends[:, 1] >= 0))
+    code = np.concatenate([ends[real, 0] * n + ends[real, 1], ends[real, 1] * n + ends[real, 0]])
+    row = np.concatenate([real, real])
+    order = np.argsort(code, kind="stable")
+    code, row = code[order], row[order]
+    out = np.zeros(r1.size, dtype=bool)
+    for i in (0, 1):
+        for j in (0, 1):
+            a, b = ends[r1, i], ends[r2, j]
+            want = a * n + b
+            at = np.minimum(np.searchsorted(code, want), max(code.size - 1, 0))
+            found = (a >= 0) & (b >= 0) & (code.size > 0) & (code[at] == want if code.size else False)
+            k = row[at] if code.size else np.zeros(r1.size, dtype=np.int64)
+            d = meet - point[k]
+            along = np.stack([-normal[k, 1], normal[k, 0]], -1)
+            on_face = (np.abs(np.sum(d * normal[k], -1)) < MIN_OVERLAP) & (
+                np.abs(np.sum(d * along, -1)) <= 0.5 * length[k] + MIN_OVERLAP
+            )
+            out |= found & on_face
+    return out
 
 
 def _within(point: np.ndarray, normal: np.ndarray, length: np.ndarray, band: np.ndarray):
@@ -477,12 +538,14 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
         return bad
     if scene.start is not None and scene.physics.fracture_energy > 0.0:
         got = _read_start(scene)
-        if got is not None and got["rest"].shape[1] <= REST.index("NB2"):
+        rest = None if got is None else got["rest"]
+        if rest is not None and (rest.shape[1] <= REST.index("NB2") or np.any(rest[:, REST.index("NB1")] == UNKNOWN)):
             return (
                 "physics.fracture_energy",
                 scene.physics.fracture_energy,
-                "must be 0 with a [start] from a run file written before the bonds kept their neighbours (it cannot "
-                "tell a crack's tips); start from the scene itself, or without fracture_energy",
+                "must be 0 with a [start] from a run file written before the bonds kept their neighbours, or from a "
+                "run that started from one (it cannot tell a crack's tips); start from the scene itself, or without "
+                "fracture_energy",
             )
     table = build(scene, bergs, pair_list) if scene.start is None else _start_table(scene, bergs)
     _, crowded = slots(bergs.count, table)
@@ -564,16 +627,20 @@ def _start_table(scene, bergs) -> np.ndarray:
     written = REST[: rest.shape[1]]  # a file written before a column was kept has the ones before it
     if "TOUCHING" in written:  # before it, no walls touched
         rows[: rest.shape[0], Bond.TOUCHING] = rest[:, REST.index("TOUCHING")]
-    rows[:, Bond.NB1] = rows[:, Bond.NB2] = -1.0
+    # a file written before the neighbours were kept cannot tell them: UNKNOWN, kept so (a later [start] from
+    # this run's file is refused a fracture energy as the file itself is); the kernels read only rows >= 0
+    rows[:, Bond.NB1] = rows[:, Bond.NB2] = UNKNOWN
     if "NB2" in written:  # the neighbours kept, renumbered; one broken by then makes the bond a tip
         new = np.cumsum(keep) - 1
         tip = rest[:, REST.index("TIP0")].copy()
         for name in ("NB1", "NB2"):
             nb = got["rest"][keep, REST.index(name)].astype(np.int64)
-            held = nb >= 0
+            held = nb >= 0  # (UNKNOWN stays unknown)
             alive = held.copy()
             alive[held] = keep[nb[held]]
-            rows[: rest.shape[0], getattr(Bond, name)] = np.where(alive, new[np.maximum(nb, 0)], -1)
+            rows[: rest.shape[0], getattr(Bond, name)] = np.where(
+                alive, new[np.maximum(nb, 0)], np.where(nb == UNKNOWN, UNKNOWN, -1)
+            )
             tip = np.where(held & ~alive, 1.0, tip)
         rows[: rest.shape[0], Bond.TIP0] = rest[:, REST.index("TIP0")]
         rows[: rest.shape[0], Bond.TIP] = tip
