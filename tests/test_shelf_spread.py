@@ -98,3 +98,24 @@ def test_a_tilted_spread_too_tight_is_refused_with_a_gap_that_then_passes():
     assert msg.startswith("shelf.gap = 0.05") and "use shelf.gap >= " in msg, msg
     need = float(msg.split("use shelf.gap >= ")[1].split()[0])
     loads(shelf(**{**keys, "gap": need})).icebergs()
+
+
+@pytest.mark.parametrize("cells", [[2, 2], [1, 4]])
+def test_a_tilted_shelf_of_cells_too_tight_is_refused_with_a_gap_that_then_passes(cells):
+    """With cells a piece tilts as a whole: the advice reckons with the piece's width and
+    thickness (and its cells' smaller discs), not a cell's, and the gap it names is accepted
+    (it named a cell's room, too little, before)."""
+    from melange_ti.scene import SceneError
+
+    effects = '[scene]\neffects = ["gravity", "buoyancy", "collisions", "bonds"]\n'
+    head = effects + BASE.removeprefix('[scene]\nname = "spread"\n')
+
+    def text(gap):
+        return head + f"[shelf]\ncount = 40\ntilt = 0.2\ngap = {gap}\ncells = {cells}\n[physics]\nbond_modulus = 1.0\n"
+
+    with pytest.raises(SceneError) as err:
+        loads(text(0.1)).icebergs()
+    msg = str(err.value)
+    assert msg.startswith("shelf.gap = 0.1") and "use shelf.gap >= " in msg, msg
+    need = float(msg.split("use shelf.gap >= ")[1].split()[0])
+    loads(text(need)).icebergs()

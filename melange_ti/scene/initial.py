@@ -337,11 +337,16 @@ def _extents(width: np.ndarray, thickness: float, radius: float, tilt: float) ->
 def _shelf_advice(scene: Scene, b: Icebergs, r: np.ndarray, wall: bool) -> str:
     """What ``shelf.gap`` would leave room for any tilt up to ``shelf.tilt``."""
     sh = scene.shelf
+    width, thickness = b.width, b.thickness
+    if b.parent is not None:  # cells: a piece tilts as a whole, its cells' discs inside its outline
+        pieces = int(b.parent.max()) + 1
+        width = np.bincount(b.parent, np.where(b.cell[:, 1] == 0, b.width, 0.0), pieces)
+        thickness = np.bincount(b.parent, np.where(b.cell[:, 0] == 0, b.thickness, 0.0), pieces)
     if sh.width_std > 0:  # each iceberg's reach beyond its faces, from its own width: room at the wall and between all
-        out = _extents(b.width, float(b.thickness.max()), float(r.max()), sh.tilt) - 0.5 * b.width
+        out = _extents(width, float(thickness.max()), float(r.max()), sh.tilt) - 0.5 * width
         need = float(max(out[0], np.max(out[1:] + out[:-1], initial=0.0)))
     else:
-        ext = float(_extents(np.array([sh.width]), float(b.thickness.max()), float(r.max()), sh.tilt)[0])
+        ext = float(_extents(np.array([sh.width]), float(thickness.max()), float(r.max()), sh.tilt)[0])
         need = ext - 0.5 * sh.width if wall else 2.0 * ext - sh.width
     return f"use shelf.gap >= {math.ceil(need * 1e4) / 1e4:g} (room for any tilt up to shelf.tilt) or a smaller shelf.tilt"
 
