@@ -256,3 +256,20 @@ def test_a_start_from_a_file_that_cannot_tell_the_tips_is_refused_a_fracture_ene
         assert msg.startswith("physics.fracture_energy = ") and "[start]" in msg and "\n" not in msg, msg
         if path == src:
             mt.run(start(src, 0.0), tmp_path / "again.h5", overwrite=True)
+
+
+def test_a_resumed_run_with_cracks_running_gives_the_whole_runs_bits(tmp_path):
+    """The tips are state (``TIP``, in the checkpoint's bond table): the cracking shelf run to
+    t = 9.424, between its breaks, and resumed to t = 12 ends where the run to t = 12 does,
+    bit for bit, with bonds broken before the stop and after it."""
+    keys = [k for k in KEYS if k[0] != "time.duration"]
+    whole, part = tmp_path / "whole.h5", tmp_path / "part.h5"
+    mt.run(loads(cracking_shelf(), keys + [("time.duration", 12.0)]), whole, overwrite=True)
+    mt.run(loads(cracking_shelf(), keys + [("time.duration", 9.424)]), part, overwrite=True)
+    mt.run(loads(cracking_shelf(), keys + [("time.duration", 12.0)]), part, resume=True)
+    a, b = read_run(whole), read_run(part)
+    bt = np.asarray(a["bonds"]["break_time"])
+    assert np.sum(bt > 9.424) > 0 and np.sum(bt <= 9.424) > 0
+    np.testing.assert_array_equal(bt, b["bonds"]["break_time"])
+    for k in ("x", "z", "theta", "vx", "vz", "omega"):
+        np.testing.assert_array_equal(a["snapshots"][k][-1], b["snapshots"][k][-1], err_msg=k)
