@@ -17,9 +17,10 @@ energy:
 
 - **stress** (today's): a bond breaks when ``s = F_n / l + 6 |M| / l^2 >= s_t``, so
   ``P_c = P s_t / max s``;
-- **energy**: a bond in tension (``s > 0``) breaks when the energy it holds reaches the
-  fracture energy of the crack it opens, ``U >= G_c l`` (``U = k_n d_n^2/2 + k_s d_s^2/2 +
-  k_b dth^2/2``), so ``P_c = P sqrt(G_c) min sqrt(l / U)`` (quoted per ``sqrt(G_c)``).
+- **energy**: a bond in tension (``s > 0``) breaks when the energy that opens it reaches the
+  fracture energy of the crack it opens, ``U_I >= G_c l`` (``U_I = k_n max(d_n, 0)^2/2 +
+  k_b dth^2/2``, its stretch and bending: mode I; its shear energy is mode II), so
+  ``P_c = P sqrt(G_c) min sqrt(l / U_I)`` (quoted per ``sqrt(G_c)``).
 
 Two slabs: **intact** (a smooth stress field: the moment peaks at ``pi / (4 beta)`` from the
 load) and **crevassed** (one joint at x = 4, near that peak, open over the top half of the
@@ -120,12 +121,11 @@ def settled(path, load_body: int) -> dict:
     d = at(now, b, col["UB"], col["VB"]) - at(now, a, col["UA"], col["VA"])
     ca, sa = np.cos(th[a]), np.sin(th[a])
     n = np.stack([ca * col["NU"] - sa * col["NV"], sa * col["NU"] + ca * col["NV"]], -1)
-    tang = np.stack([-n[:, 1], n[:, 0]], -1)
-    dn, ds = np.sum(d * n, -1), np.sum(d * tang, -1)
+    dn = np.sum(d * n, -1)
     dth = th[b] - th[a] - col["DTH"]
     fn, m = col["KN"] * dn, col["KB"] * dth
     length = col["LEN"]
-    energy = 0.5 * (col["KN"] * dn**2 + col["KS"] * ds**2 + col["KB"] * dth**2)
+    energy = 0.5 * (col["KN"] * np.maximum(dn, 0.0) ** 2 + col["KB"] * dth**2)  # what opens it (mode I), as the model reads
     p0 = at(start, a, col["UA"], col["VA"])
     slab = (body[a] < load_body) & (body[b] < load_body)
     return dict(

@@ -355,7 +355,7 @@ def test_a_start_from_a_crevassed_run_keeps_which_walls_touch(tmp_path):
     np.testing.assert_array_equal(table[: own.shape[0], Bond.TOUCHING], own[:, Bond.TOUCHING])
 
 
-@pytest.mark.parametrize("version, fewer", [(8, 6), (9, 5)])
+@pytest.mark.parametrize("version, fewer", [(8, 8), (9, 7)])
 def test_a_checkpoint_whose_bond_table_is_an_earlier_versions_is_refused(tmp_path, version, fewer):
     """A checkpoint of an earlier melange_ti, whose bond table had fewer columns (format 8: no
     ``TOUCHING``; 9: no neighbours and crack tips, ``TIP0`` ... ``GCL`` and ``TIP``), is refused a

@@ -66,6 +66,13 @@ def test_a_bonds_neighbours_continue_its_face_and_a_crevasses_tip_is_where_its_f
         d = point[nb[has]] - point[has]
         assert np.all(np.abs(np.sum(d * normal[has], -1)) < 1e-9)  # on one line
         np.testing.assert_allclose(np.hypot(*d.T), 0.5 * (length[has] + length[nb[has]]), atol=1e-9)  # abutting
+    for name, via in (("NB1", "BR1"), ("NB2", "BR2")):  # the bridge: joins their ice where the faces meet
+        nb, br = (t[:, getattr(Bond, c)].astype(np.int64) for c in (name, via))
+        has = np.flatnonzero(nb >= 0)
+        assert np.all(br[has] >= 0) and np.all(br[nb < 0] < 0)
+        ends = t[:, [Bond.A, Bond.B]].astype(np.int64)
+        for r in has:
+            assert set(ends[br[r]]) & set(ends[r]) and set(ends[br[r]]) & set(ends[nb[r]])
     joint = np.abs(point[:, 0] - fc.CREVASSE_X) < 1e-9
     ligament = joint & (np.abs(normal[:, 0]) > 0.5)
     assert ligament.sum() == 2  # half the thickness, cells a quarter of it
@@ -273,3 +280,33 @@ def test_a_resumed_run_with_cracks_running_gives_the_whole_runs_bits(tmp_path):
     np.testing.assert_array_equal(bt, b["bonds"]["break_time"])
     for k in ("x", "z", "theta", "vx", "vz", "omega"):
         np.testing.assert_array_equal(a["snapshots"][k][-1], b["snapshots"][k][-1], err_msg=k)
+
+
+@pytest.mark.parametrize("bridge_whole", [True, False])
+def test_a_crack_does_not_jump_a_gap(bridge_whole):
+    """A bond becomes a tip when its neighbour along the line breaks only while the bond that
+    joins their ice where the faces meet holds (``BR1``, ``BR2``): the ligament's lower bond,
+    its upper neighbour broken by hand, is a tip after one step with the column's cells still
+    bonded to each other, and not with that bond broken too."""
+    from melange_ti import runtime
+    from melange_ti.model import Model
+
+    runtime.init("cpu")
+    text = fc.slab_text(0.25, 1.0, True, dt=0.003, duration=0.01).replace(
+        "bond_damping = 0.05\n", "bond_damping = 0.05\nfracture_energy = 1.0\n"
+    )
+    m = Model(loads(text))
+    whole = m.own_rows()
+    table = m.own_rows("bonds", whole)
+    tip = int(np.flatnonzero(table[:, Bond.TIP0] == 1.0)[0])
+    below = int(table[tip, Bond.NB1])
+    bridge = int(table[below, Bond.BR2])
+    assert table[below, Bond.NB2] == tip and bridge >= 0 and table[below, Bond.TIP] == 0.0
+    table[tip, Bond.INTACT] = 0.0
+    if not bridge_whole:
+        table[bridge, Bond.INTACT] = 0.0
+    m.arrays.own.from_numpy(whole)
+    m.advance(1)
+    after = m.own_rows("bonds", m.own_rows())
+    assert after[below, Bond.INTACT] == 1.0  # nothing broke it: G_c is far above its energy
+    assert after[below, Bond.TIP] == (1.0 if bridge_whole else 0.0)

@@ -118,6 +118,8 @@ TABLE = Table(
         ),
         Column("NB1", "constant", "1", "the bond next to it along its face's line, one way (row in the bond table; -1: none)"),
         Column("NB2", "constant", "1", "the bond next to it along its face's line, the other way (-1: none)"),
+        Column("BR1", "constant", "1", "the bond that joins its ice to NB1's where their faces meet (-1: none)"),
+        Column("BR2", "constant", "1", "the bond that joins its ice to NB2's where their faces meet (-1: none)"),
         Column("GCL", "constant", "rho_w g w^2", "G_c times its face length: the energy that breaks it at a tip (0: off)"),
         Column("INTACT", "state", "1", "1 while the bond holds, 0 once broken"),
         Column("TIP", "state", "1", "1 while it is a crack's tip: TIP0, or a bond next to it has broken (a step before)"),

@@ -308,7 +308,7 @@ def lines(rows: np.ndarray, bergs, band: np.ndarray | None = None, open_edge: np
     ends at a crevasse's edge inside its joint (``TIP0``, and ``TIP`` from it): a crack's tip
     from the start (``band``, ``open_edge``: :func:`joints`)."""
     on = np.flatnonzero(rows[:, Bond.A] >= 0)
-    rows[:, Bond.NB1] = rows[:, Bond.NB2] = -1.0
+    rows[:, Bond.NB1] = rows[:, Bond.NB2] = rows[:, Bond.BR1] = rows[:, Bond.BR2] = -1.0
     rows[:, Bond.TIP0] = rows[:, Bond.TIP] = 0.0
     if not on.size:
         return
@@ -327,9 +327,11 @@ def lines(rows: np.ndarray, bergs, band: np.ndarray | None = None, open_edge: np
     keep = same & (np.abs(gap) < MIN_OVERLAP)
     ends = order[:-1][keep]  # lo's place in point, normal, length
     meet = point[ends] + along[ends] * (0.5 * length[ends])[:, None]
-    keep[keep] = _bonded_across(rows, lo[keep], hi[keep], meet, every)
-    rows[lo[keep], Bond.NB2] = hi[keep]
-    rows[hi[keep], Bond.NB1] = lo[keep]
+    bridge = np.full(lo.size, -1, dtype=np.int64)
+    bridge[keep] = _bonded_across(rows, lo[keep], hi[keep], meet, every)
+    keep &= bridge >= 0
+    rows[lo[keep], Bond.NB2], rows[lo[keep], Bond.BR2] = hi[keep], bridge[keep]
+    rows[hi[keep], Bond.NB1], rows[hi[keep], Bond.BR1] = lo[keep], bridge[keep]
     if band is None or open_edge is None or not open_edge.any():
         return
     rise = 0.5 * length * np.abs(along[:, 1])
@@ -352,10 +354,11 @@ def _groups(value: np.ndarray, tol: float, within: np.ndarray | None = None) -> 
 
 
 def _bonded_across(rows: np.ndarray, r1: np.ndarray, r2: np.ndarray, meet: np.ndarray, faces: tuple) -> np.ndarray:
-    """Whether the ice is whole where the faces of bonds ``r1`` and ``r2`` meet (at ``meet``,
-    ``(P, 2)``): a bond at t = 0 joins an iceberg of one to an iceberg of the other (the wall
-    aside) and its face reaches that point, so no crevasse lies between them. ``faces``: every
-    row's :func:`faces_at_start`."""
+    """The bond that makes the ice whole where the faces of bonds ``r1`` and ``r2`` meet (at
+    ``meet``, ``(P, 2)``), or -1: a bond at t = 0 that joins an iceberg of one to an iceberg
+    of the other (the wall aside) and whose face reaches that point, so no crevasse lies
+    between them (the bridge a crack crosses from one to the other). ``faces``: every row's
+    :func:`faces_at_start`."""
     point, normal, length = faces
     ends = rows[:, [Bond.A, Bond.B]].astype(np.int64)
     n = int(ends.max()) + 2
@@ -364,7 +367,7 @@ def _bonded_across(rows: np.ndarray, r1: np.ndarray, r2: np.ndarray, meet: np.nd
     row = np.concatenate([real, real])
     order = np.argsort(code, kind="stable")
     code, row = code[order], row[order]
-    out = np.zeros(r1.size, dtype=bool)
+    out = np.full(r1.size, -1, dtype=np.int64)
     for i in (0, 1):
         for j in (0, 1):
             a, b = ends[r1, i], ends[r2, j]
@@ -377,7 +380,7 @@ def _bonded_across(rows: np.ndarray, r1: np.ndarray, r2: np.ndarray, meet: np.nd
             on_face = (np.abs(np.sum(d * normal[k], -1)) < MIN_OVERLAP) & (
                 np.abs(np.sum(d * along, -1)) <= 0.5 * length[k] + MIN_OVERLAP
             )
-            out |= found & on_face
+            out = np.where((out < 0) & found & on_face, k, out)
     return out
 
 
@@ -539,7 +542,7 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
     if scene.start is not None and scene.physics.fracture_energy > 0.0:
         got = _read_start(scene)
         rest = None if got is None else got["rest"]
-        if rest is not None and (rest.shape[1] <= REST.index("NB2") or np.any(rest[:, REST.index("NB1")] == UNKNOWN)):
+        if rest is not None and (rest.shape[1] <= REST.index("BR2") or np.any(rest[:, REST.index("NB1")] == UNKNOWN)):
             return (
                 "physics.fracture_energy",
                 scene.physics.fracture_energy,
@@ -629,19 +632,22 @@ def _start_table(scene, bergs) -> np.ndarray:
         rows[: rest.shape[0], Bond.TOUCHING] = rest[:, REST.index("TOUCHING")]
     # a file written before the neighbours were kept cannot tell them: UNKNOWN, kept so (a later [start] from
     # this run's file is refused a fracture energy as the file itself is); the kernels read only rows >= 0
-    rows[:, Bond.NB1] = rows[:, Bond.NB2] = UNKNOWN
-    if "NB2" in written:  # the neighbours kept, renumbered; one broken by then makes the bond a tip
+    rows[:, Bond.NB1] = rows[:, Bond.NB2] = rows[:, Bond.BR1] = rows[:, Bond.BR2] = UNKNOWN
+    if "BR2" in written:  # the neighbours kept, renumbered; one broken by then, its bridge whole, makes a tip
         new = np.cumsum(keep) - 1
         tip = rest[:, REST.index("TIP0")].copy()
-        for name in ("NB1", "NB2"):
+        for name, via in (("NB1", "BR1"), ("NB2", "BR2")):
             nb = got["rest"][keep, REST.index(name)].astype(np.int64)
-            held = nb >= 0  # (UNKNOWN stays unknown)
-            alive = held.copy()
-            alive[held] = keep[nb[held]]
-            rows[: rest.shape[0], getattr(Bond, name)] = np.where(
-                alive, new[np.maximum(nb, 0)], np.where(nb == UNKNOWN, UNKNOWN, -1)
-            )
-            tip = np.where(held & ~alive, 1.0, tip)
+            br = got["rest"][keep, REST.index(via)].astype(np.int64)
+            held = (nb >= 0) & (br >= 0)  # (UNKNOWN stays unknown)
+            whole = held.copy()
+            whole[held] = keep[br[held]]  # the ice between them still bonded: else the link is gone
+            alive = whole.copy()
+            alive[whole] = keep[nb[whole]]
+            unknown = nb == UNKNOWN
+            rows[: rest.shape[0], getattr(Bond, name)] = np.where(alive, new[np.maximum(nb, 0)], np.where(unknown, UNKNOWN, -1))
+            rows[: rest.shape[0], getattr(Bond, via)] = np.where(alive, new[np.maximum(br, 0)], np.where(unknown, UNKNOWN, -1))
+            tip = np.where(whole & ~alive, 1.0, tip)
         rows[: rest.shape[0], Bond.TIP0] = rest[:, REST.index("TIP0")]
         rows[: rest.shape[0], Bond.TIP] = tip
     rows[: rest.shape[0], Bond.INTACT] = 1.0

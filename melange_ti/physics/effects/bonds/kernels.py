@@ -76,13 +76,14 @@ def update(a: ti.template(), r):
         gz = fn * nz + fs * sz
         ta = rax * gz - raz * gx - (kn - ks) * dn * ds + m
         tb = -(rbx * gz - rbz * gx) - m
-        # in tension by its strength; at a crack's tip (fracture_energy on) by the energy it holds
+        # in tension by its strength; at a crack's tip (fracture_energy on) by the energy that opens it (mode I:
+        # its stretch, if stretched, and its bending; its shear is mode II, left to the shear strength)
         tensile = sig > own[r, Bond.ST]
         if own[r, Bond.GCL] > 0.0:
             if own[r, Bond.TIP] > 0.5:
                 tensile = False
                 if sig > 0.0:
-                    tensile = 0.5 * (fn * dn + fs * ds + m * dth) >= own[r, Bond.GCL]
+                    tensile = 0.5 * (fn * ti.max(dn, 0.0) + m * dth) >= own[r, Bond.GCL]
         if tensile or tau > own[r, Bond.SS]:
             own[r, Bond.INTACT] = 0.0
             own[r, Bond.BREAK_SIG] = sig
@@ -217,19 +218,24 @@ def post_drift(a: ti.template(), i):
 @ti.func
 def _tips(a: ti.template(), i):
     """Body i's bonds of which it is A (one writer each) become a crack's tip once a bond next
-    to them along their face's line has broken (``NB1``, ``NB2``): read at the next step's
-    break check, so no bond reads another's state as the same loop writes it."""
+    to them along their face's line has broken (``NB1``, ``NB2``) while the bond that joins
+    their ice where the two faces meet holds (``BR1``, ``BR2``: a crack does not jump a gap):
+    read at the next step's break check, so no bond reads another's state as the same loop
+    writes it."""
     own = ti.static(a.own)
     lo, _ = rows(a)
     for k in ti.static(range(MAX_BONDS)):
         r = ti.cast(a.b[i, Body.BOND_1 + k], ti.i32) - 1
         if r >= 0:
             if own[r, Bond.GCL] > 0.0 and own[r, Bond.TIP] < 0.5 and ti.cast(own[r, Bond.A], ti.i32) == i:
-                for q in ti.static((Bond.NB1, Bond.NB2)):
+                for q, via in ti.static(((Bond.NB1, Bond.BR1), (Bond.NB2, Bond.BR2))):
                     nb = ti.cast(own[r, q], ti.i32)
+                    br = ti.cast(own[r, via], ti.i32)
                     if nb >= 0:
-                        if own[lo + nb, Bond.INTACT] < 0.5:
-                            own[r, Bond.TIP] = 1.0
+                        if br >= 0:
+                            if own[lo + nb, Bond.INTACT] < 0.5:
+                                if own[lo + br, Bond.INTACT] > 0.5:
+                                    own[r, Bond.TIP] = 1.0
 
 
 @ti.func
