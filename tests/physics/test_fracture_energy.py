@@ -33,10 +33,11 @@ import pytest
 import melange_ti as mt
 from melange_ti.io.hdf5 import read_run
 from melange_ti.physics.effects.bonds import Bond
-from melange_ti.physics.effects.bonds.host import build, faces_at_start, pairs
+from melange_ti.physics.effects.bonds.host import faces_at_start
 from melange_ti.scene import SceneError, loads
 
 from ..conftest import ROOT
+from .test_crevasses import table_of
 
 _spec = importlib.util.spec_from_file_location("fracture_convergence", ROOT / "validation" / "fracture_convergence.py")
 fc = importlib.util.module_from_spec(_spec)
@@ -44,11 +45,8 @@ _spec.loader.exec_module(fc)
 
 
 def table(text: str):
-    sc = loads(text)
-    b = sc.icebergs()
-    got, bad = pairs(sc, b)
-    assert bad is None
-    t = build(sc, b, got)
+    """The scene's icebergs and bond table at t = 0 (every row a bond: these scenes have some)."""
+    _, b, t = table_of(text)
     return b, t
 
 

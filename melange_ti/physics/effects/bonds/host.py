@@ -290,14 +290,11 @@ def geometry(wall_x: float, bergs, pair_list, band: np.ndarray | None = None) ->
 
 
 def faces_at_start(rows: np.ndarray, bergs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Each bond's face at t = 0 in the world frame: its middle, its normal, its length."""
-    on = rows[:, Bond.A] >= 0
-    i = np.where(on, rows[:, Bond.A], 0).astype(np.int64)
+    """Each bond's face at t = 0 in the world frame (:func:`world`): its middle, its normal,
+    its length."""
     x, z, th = (np.asarray(v, dtype=np.float64) for v in (bergs.x, bergs.z, bergs.theta))
-    c, s = np.cos(th[i]), np.sin(th[i])
-    point = np.stack([x[i] + c * rows[:, Bond.UA] - s * rows[:, Bond.VA], z[i] + s * rows[:, Bond.UA] + c * rows[:, Bond.VA]], -1)
-    normal = np.stack([c * rows[:, Bond.NU] - s * rows[:, Bond.NV], s * rows[:, Bond.NU] + c * rows[:, Bond.NV]], -1)
-    return point, normal, rows[:, Bond.LEN]
+    i, _, _, ra, n, _, _ = world(rows, x, z, th)
+    return np.stack([x[i] + ra[0], z[i] + ra[1]], -1), np.stack(n, -1), rows[:, Bond.LEN]
 
 
 def lines(rows: np.ndarray, bergs, band: np.ndarray | None = None, open_edge: np.ndarray | None = None) -> None:
@@ -368,13 +365,15 @@ def _bonded_across(rows: np.ndarray, r1: np.ndarray, r2: np.ndarray, meet: np.nd
     order = np.argsort(code, kind="stable")
     code, row = code[order], row[order]
     out = np.full(r1.size, -1, dtype=np.int64)
+    if not code.size:  # no two icebergs bonded: nothing to bridge
+        return out
     for i in (0, 1):
         for j in (0, 1):
             a, b = ends[r1, i], ends[r2, j]
             want = a * n + b
-            at = np.minimum(np.searchsorted(code, want), max(code.size - 1, 0))
-            found = (a >= 0) & (b >= 0) & (code.size > 0) & (code[at] == want if code.size else False)
-            k = row[at] if code.size else np.zeros(r1.size, dtype=np.int64)
+            at = np.minimum(np.searchsorted(code, want), code.size - 1)
+            found = (a >= 0) & (b >= 0) & (code[at] == want)
+            k = row[at]
             d = meet - point[k]
             along = np.stack([-normal[k, 1], normal[k, 0]], -1)
             on_face = (np.abs(np.sum(d * normal[k], -1)) < MIN_OVERLAP) & (
