@@ -242,6 +242,8 @@ CONTACTS = Table(
         ),
         # the contact's colour (forms/colours.py), allocated only when the passes are coloured
         Column("COLOUR", "scratch", "1", "coloured passes: the contact's colour (-1: not yet coloured)", owner="coloured"),
+        # the normal impulse the contact has passed this step (effect crushing: at most F_c dt)
+        Column("SPENT", "scratch", "rho_w w^2 sqrt(g w)", "crushing: its normal impulse so far this step", owner="crushing"),
     ),
     Contact,
 )

@@ -15,7 +15,7 @@ The order is the order in which forces are summed, and so part of the results' b
 
 from dataclasses import make_dataclass
 
-from . import added_mass, bonds, buoyancy, collisions, drag, form_drag, friction, gravity, wall, waves
+from . import added_mass, bonds, buoyancy, collisions, crushing, drag, form_drag, friction, gravity, wall, waves
 from .base import Dataset, Effect, Key, Quantity, State
 
 REGISTRY: tuple[Effect, ...] = (
@@ -27,6 +27,7 @@ REGISTRY: tuple[Effect, ...] = (
     collisions.EFFECT,
     wall.EFFECT,
     friction.EFFECT,
+    crushing.EFFECT,
     waves.EFFECT,
     bonds.EFFECT,
 )

@@ -169,12 +169,13 @@ class Effect:
                                                but the effect holds its overlap (a bond
                                                beside a crevasse's walls): the overlap
                                                correction leaves it
-    ``impulse(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, K_nn, m1, I1, c1n, m2, I2, c2n, kick_vn)
+    ``impulse(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, K_nn, m1, I1, c1n, m2, I2, c2n, kick_vn, room)
        -> (J_n, ti.Vector(ledger terms))``     the contact law's impulse (at most one named
                                                effect has it; without, the frictionless law
                                                of :func:`..step.impulses.resolve`), applied to the
                                                pair; the terms of the law's ledgers, the
-                                               law's own then its ``law_ledgers``
+                                               law's own then its ``law_ledgers``; with
+                                               crushing, ``J_n`` at most ``room``
 
     ``beyond_paper``: the effect is not in the paper's model; its columns go after the
     paper's (a line of their own), so a scene that does not name it keeps the paper's row.

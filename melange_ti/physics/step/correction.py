@@ -8,7 +8,11 @@ measured from the discs. Sweeps repeat (at most ``MAX_CORRECT``) until none push
 push that drives a body back into the wall or a third body is undone too. The potential
 energy the pushes add is booked per moved body (``Acc.CORRECTION``, ``correction_work``).
 A pair whose overlap a named effect holds (its ``kept`` term: a bond beside a crevasse's
-walls, which touch through impulses) is not pushed.
+walls, which touch through impulses) is not pushed. With crushing (effect ``crushing``) a
+push counts against the contact's room for the step as the impulse that would move the pair
+as far in one step, ``depth / ((1/m_1 + 1/m_2) dt)``: a contact that crushed this step keeps
+its overlap (the ice crushed) up to one disc radius, and one that crushed before is pushed out
+no faster than its crushing force could (docs/model.md, "Crushing").
 """
 
 import taichi as ti
@@ -18,7 +22,7 @@ from ..effects import KEPT
 from ..numerics import TINY
 from . import wall
 from .forces import any_on, contact_mass, potential_energy
-from .impulses import contact, contact_range, in_pass
+from .impulses import contact, contact_range, crush_room, in_pass
 from .pairs import normal_speed
 from .terms import term as term_of
 
@@ -51,7 +55,7 @@ def kept(fx: ti.template(), a: ti.template(), i, j) -> ti.i32:
 
 
 @ti.func
-def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end, eager: ti.template()):
+def push(fx: ti.template(), a: ti.template(), sweep, i, j, slot, nx, nz, g_end, eager: ti.template()):
     """Remove the overlap left after the drift, split by inverse mass (pair centre fixed).
 
     Between two icebergs the overlap is ``g_end`` (:func:`predicted_gap`) plus the pushes
@@ -59,7 +63,8 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end, eager:
     the discs. A body moved for the first time in this pass records its potential energy
     (``Body.POT_START``; with ``eager``, :func:`prepare_body` recorded it) and is marked
     with the sweep (``BodyInt.PUSHED``); the pass books the energy change per body. A pair
-    a named effect holds (:func:`kept`) is left as it is."""
+    a named effect holds (:func:`kept`) is left as it is; with crushing, the depth is at most
+    what the contact's room allows (module docstring)."""
     b = ti.static(a.b)
     _m1, inv1, _i1 = contact_mass(fx, a, i)
     inv2 = 0.0
@@ -74,9 +79,27 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end, eager:
     if ti.static(any_on(KEPT, fx)):  # asked only of a pair that overlaps
         if g < -TINY and j >= 0:
             held = kept(fx, a, i, j)
+    depth = -g
+    if ti.static(fx.crushing):
+        if g < -TINY and held == 0:
+            cap, room = crush_room(fx, a, i, slot)
+            per = (inv1 + inv2) * a.par[Param.DT]  # depth per unit of impulse
+            # the crushed overlap a pair keeps is at most one disc radius (deeper, the discs
+            # of flat faces would pass through each other): the rest is pushed out as without
+            r = b[i, Body.RADIUS]
+            if j >= 0:
+                r = ti.min(r, b[j, Body.RADIUS])
+            beyond = depth - r
+            if depth >= room * per:
+                depth = room * per
+                a.cd[slot, i, Contact.SPENT] = cap
+            else:
+                a.cd[slot, i, Contact.SPENT] += depth / per
+            depth = ti.max(depth, beyond)
+            if depth <= TINY:
+                held = 1  # no room left: the overlap is ice crushed this step
     if g < -TINY and held == 0:
         pushed = 1
-        depth = -g
         if ti.static(not eager):
             if a.bi[i, BodyInt.PUSHED] < 0:
                 b[i, Body.POT_START] = potential_energy(fx, a, i)
@@ -143,7 +166,7 @@ def sweep_body(fx: ti.template(), a: ti.template(), sweep, i, eager: ti.template
             if j >= 0:
                 moved = ti.max(moved, a.bi[j, BodyInt.PUSHED])
             if moved >= since:
-                pushed += push(fx, a, sweep, i, j, nx, nz, g_end, eager)
+                pushed += push(fx, a, sweep, i, j, slot, nx, nz, g_end, eager)
     return pushed
 
 

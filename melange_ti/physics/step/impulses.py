@@ -77,7 +77,11 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
         rx2 = px - b[j, Body.X]
         rz2 = pz - b[j, Body.Z]
     vn = normal_speed(a, i, j, rx1, rz1, rx2, rz2, nx, nz)
-    if vn < 0 and gap + a.par[Param.DT] * vn < 0:
+    cap, room = crush_room(fx, a, i, slot)
+    hit = vn < 0 and gap + a.par[Param.DT] * vn < 0
+    if ti.static(fx.crushing):
+        hit = hit and room > 0  # a contact at its cap crushes: no impulse more this step
+    if hit:
         e = a.par[Param.RESTITUTION]
         kk, m1, i1, a1, m2, i2, a2 = pair_mass(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz)
         # the step's energy is the kinetic energy at the mid-kick velocities, half a kick
@@ -87,11 +91,18 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
         terms = ti.Vector(ti.static([0.0] * len(law_ledgers(fx))))
         if ti.static(contact_law(fx) in IMPULSE_LAW):
             impulse = ti.static(law_impulse(fx))
-            jn, terms = impulse(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, kk, m1, i1, a1, m2, i2, a2, kick_vn)
+            jn, terms = impulse(fx, a, i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, kk, m1, i1, a1, m2, i2, a2, kick_vn, room)
         else:
             jn = -(1.0 + e) * vn / kk
+            dissipated = 0.5 * (1.0 - e * e) * vn * vn / kk
+            if ti.static(fx.crushing):
+                if jn > room:  # the ice crushes: the contact passes what it can carry this step
+                    jn = room
+                    dissipated = -jn * (vn + 0.5 * jn * kk)
             push(a, i, j, jn, nx, nz, m1, i1, a1, m2, i2, a2)
-            terms = ti.Vector([0.5 * (1.0 - e * e) * vn * vn / kk, 0.5 * jn * kick_vn])
+            terms = ti.Vector([dissipated, 0.5 * jn * kick_vn])
+        if ti.static(fx.crushing):
+            spend(a, i, slot, jn, cap, room)
         if ti.static(defer):
             a.cd[slot, i, Contact.DEF_IMPULSE] = jn
             for q in ti.static(range(len(law_ledgers(fx)))):
@@ -103,6 +114,29 @@ def resolve(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap, slot
             for q in ti.static(range(len(law_ledgers(fx)))):
                 a.acc[ti.static(law_ledgers(fx)[q][0])] += terms[q]
             a.cnt[Counter.IMPULSES] += 1  # deferred: counted by book (no atomics in the islands' loop)
+
+
+@ti.func
+def crush_room(fx: ti.template(), a: ti.template(), i, slot):
+    """With crushing (effect ``crushing``): ``(cap, room)``, the normal impulse the contact
+    may pass in a step, ``F_c dt`` with ``F_c = p_c h_c``, and what is left of it this step
+    (``Contact.SPENT``, zeroed at detection); without, ``(0, 0)``, unused."""
+    cap = 0.0
+    room = 0.0
+    if ti.static(fx.crushing):
+        cap = a.par[Param.CRUSH_PRESSURE] * a.par[Param.CRUSH_HEIGHT] * a.par[Param.DT]
+        room = cap - a.cd[slot, i, Contact.SPENT]
+    return cap, room
+
+
+@ti.func
+def spend(a: ti.template(), i, slot, jn, cap, room):
+    """Add the impulse ``jn`` to what the contact has passed this step; one that took all the
+    room leaves the contact exactly at its cap (so :func:`deep_approach` lets it crush)."""
+    if jn >= room:
+        a.cd[slot, i, Contact.SPENT] = cap
+    else:
+        a.cd[slot, i, Contact.SPENT] += jn
 
 
 @ti.func
@@ -213,9 +247,10 @@ def book_bodies(fx: ti.template(), a: ti.template(), start, end):
 
 
 @ti.func
-def deep_approach(a: ti.template(), i, j, px, pz, nx, nz, gap):
+def deep_approach(fx: ti.template(), a: ti.template(), i, j, slot, px, pz, nx, nz, gap):
     """1 if the contact still approaches so fast that it would overlap by more than
-    DEEP_FRACTION of a disc radius by the end of the step."""
+    DEEP_FRACTION of a disc radius by the end of the step, and may still pass an impulse
+    (with crushing, a contact at its cap crushes instead)."""
     b = ti.static(a.b)
     rx2 = 0.0
     rz2 = 0.0
@@ -225,7 +260,12 @@ def deep_approach(a: ti.template(), i, j, px, pz, nx, nz, gap):
         rz2 = pz - b[j, Body.Z]
         r = ti.min(r, b[j, Body.RADIUS])
     vn = normal_speed(a, i, j, px - b[i, Body.X], pz - b[i, Body.Z], rx2, rz2, nx, nz)
-    return ti.cast(vn < 0 and gap + a.par[Param.DT] * vn < -DEEP_FRACTION * r, ti.i32)
+    deep = ti.cast(vn < 0 and gap + a.par[Param.DT] * vn < -DEEP_FRACTION * r, ti.i32)
+    if ti.static(fx.crushing):
+        _cap, room = crush_room(fx, a, i, slot)
+        if room <= 0:
+            deep = 0  # at its cap: the contact crushes, another pass would not push it
+    return deep
 
 
 @ti.func
@@ -234,8 +274,8 @@ def deep_contacts(fx: ti.template(), a: ti.template(), i):
     count = 0
     first, last = contact_range(fx, a, i)
     for s in range(first, last):
-        j, _slot, px, pz, nx, nz, gap = contact(fx, a, i, s)
-        count += deep_approach(a, i, j, px, pz, nx, nz, gap)
+        j, slot, px, pz, nx, nz, gap = contact(fx, a, i, s)
+        count += deep_approach(fx, a, i, j, slot, px, pz, nx, nz, gap)
     return count
 
 

@@ -339,9 +339,14 @@ def merge(a: ti.template(), i, j, near, standby, gap, xi, zi, xj, zj, cj, sj):
 
 @ti.func
 def detect(fx: ti.template(), a: ti.template(), i, size):
-    """Contacts of body i with partners j > i (slots sorted by j), and with the wall."""
+    """Contacts of body i with partners j > i (slots sorted by j), and with the wall; with
+    crushing, what each has passed this step starts at 0 (a detection again within a step
+    starts it afresh)."""
     b = ti.static(a.b)
     a.bi[i, BodyInt.NCONTACT] = 0
+    if ti.static(fx.crushing):
+        for s in range(ti.cast(a.cfg[Config.SLOTS], ti.i32) + 1):
+            a.cd[s, i, Contact.SPENT] = 0.0
     if ti.static(fx.collisions):
         ncells = a.cfg[Config.NCELLS]
         xi = b[i, Body.X]

@@ -34,7 +34,9 @@ def gain(jn, jt, vn, vt, knn, knt, ktt):
 
 
 @ti.func
-def impulse(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, knn, m1, i1, c1n, m2, i2, c2n, kick_vn):
+def impulse(
+    fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, nz, vn, e, knn, m1, i1, c1n, m2, i2, c2n, kick_vn, room
+):
     """The impulse ``P = J_n n + J_t t`` of Newton's restitution with Coulomb friction
     (effect ``friction``, :mod:`..friction`; derived in docs/model.md), applied to
     the pair: the contact point's relative velocity ``u = (v_n, v_t)`` changes by ``K P``,
@@ -44,7 +46,13 @@ def impulse(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, n
     edge on that side. Returns ``J_n`` and the terms of the law's ledgers
     (:func:`...data.schema.law_ledgers`): the normal impulse's dissipation, the half-kick offset,
     the tangential impulse's dissipation; each impulse's work at its direction's mean
-    velocity, ``-J (v + v') / 2``, which sum to the kinetic energy lost."""
+    velocity, ``-J (v + v') / 2``, which sum to the kinetic energy lost.
+
+    With crushing (effect ``crushing``) an impulse whose ``J_n`` exceeds ``room``, what the
+    contact may still pass this step, is scaled down whole to ``J_n = room``: it stays in the
+    cone, and its kinetic-energy gain ``s J . u + s^2 J . K J / 2`` is convex in the scale
+    ``s``, so over ``[0, 1]`` at most the unscaled impulse's (no gain, above): a crushing
+    contact creates no energy either."""
     tx = -nz
     tz = nx
     ktt, _m1, _i1, c1t, _m2, _i2, c2t = pair_mass(fx, a, i, j, rx1, rz1, rx2, rz2, tx, tz)
@@ -74,6 +82,12 @@ def impulse(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, n
         kept = lo
         jn, jt = coulomb(vn, vt, lo, knn, knt, ktt, mu)
 
+    scaled = False
+    if ti.static(fx.crushing):
+        if jn > room:
+            jt *= room / jn
+            jn = room
+            scaled = True
     px = jn * nx + jt * tx
     pz = jn * nz + jt * tz
     b = ti.static(a.b)
@@ -87,7 +101,7 @@ def impulse(fx: ti.template(), a: ti.template(), i, j, rx1, rz1, rx2, rz2, nx, n
     vn_after = vn + knn * jn + knt * jt
     vt_after = vt + knt * jn + ktt * jt
     collision = -0.5 * jn * (vn + vn_after)
-    if jt == 0.0:  # the frictionless impulse (mu = 0, or no sliding to stop): its ledger's bits too
+    if jt == 0.0 and not scaled:  # the frictionless impulse (mu = 0, or no sliding to stop): its ledger's bits too
         collision = 0.5 * (1.0 - kept * kept) * vn * vn / knn
     kick_vt = relative_normal(a, i, j, Body.KICK_VX, Body.KICK_VZ, Body.KICK_OM, rx1, rz1, rx2, rz2, tx, tz)
     return jn, ti.Vector([collision, 0.5 * jn * kick_vn + 0.5 * jt * kick_vt, -0.5 * jt * (vt + vt_after)])
