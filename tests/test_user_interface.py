@@ -369,7 +369,7 @@ def test_effects_list_on_the_command_line_and_in_the_docs(tmp_path):
     assert "'nosuch'" in one_error(cli(["check", "--set", "scene.effects=gravity,nosuch"], tmp_path))
     row = next(ln for ln in (ROOT / "docs" / "scenes.md").read_text().splitlines() if ln.startswith("| `effects` |"))
     accepted = row.split("|")[4]
-    assert len(REGISTRY) == 10 and all(e.name in accepted for e in REGISTRY), row
+    assert len(REGISTRY) == 11 and all(e.name in accepted for e in REGISTRY), row
     assert 'effects = ["gravity", "buoyancy", "drag"]' in row and "--set scene.effects=gravity,buoyancy,drag" in row
 
 

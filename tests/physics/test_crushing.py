@@ -239,3 +239,31 @@ def test_a_crushing_impact_loads_a_bonded_slab_with_its_crushing_force_not_its_s
     assert peak[("crushing", 0.1)] == pytest.approx(peak[("crushing", 0.05)], rel=0.05)
     assert peak[("rigid", 0.1)] == pytest.approx(2 * peak[("rigid", 0.05)], rel=0.05)
     assert peak[("rigid", 0.05)] > 2 * bound
+
+
+@pytest.mark.parametrize("form", ["serial", "device parts"])
+def test_coloured_passes_with_crushing_give_the_parallel_forms_bits(form):
+    """The coloured order (a device's default) with crushing: two layers of blocks driven
+    into the wall and each other (tests/physics/test_colours.py), friction on, a pressure at
+    which their impacts crush; the serial form and the device's parts on the CPU give the
+    parallel form's bits (the device parts' energy sums within rounding)."""
+    from .test_colours import jammed
+
+    effects = ("gravity", "buoyancy", "drag", "collisions", "wall", "friction", "crushing")
+
+    def run(**kw):
+        sc = jammed("coloured", n=40, effects=effects)
+        m = Model(sc, **kw)
+        m.advance(100)
+        return m.state(), m.totals()
+
+    state, tot = run(mode="parallel")
+    other, tot_o = run(mode="serial") if form == "serial" else run(mode="parallel", device_parts=True)
+    for k in state:
+        assert np.array_equal(other[k], state[k]), k
+    assert tot_o.impulses == tot.impulses > 300, "many impulses: crushing contacts act step after step"
+    if form == "serial":
+        assert tot_o == tot
+    else:
+        for name in ("collision_dissipated", "friction_dissipated", "impulse_sum", "correction_work"):
+            assert getattr(tot_o, name) == pytest.approx(getattr(tot, name), rel=1e-12, abs=1e-15)

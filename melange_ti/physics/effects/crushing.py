@@ -10,9 +10,10 @@ effect each contact (one per touching pair, or an iceberg and the wall) passes a
 ``F_c dt`` of normal impulse per step, ``F_c = crushing_pressure * crushing_height``: the
 contact law's impulse (restitution, with friction its tangential part too) is scaled down to
 that, so the rest of the momentum goes over the following steps, while the pair keeps
-closing and the ice at the contact crushes (the overlap correction removes the crushed
-overlap). The work ``-J (v_n + J K / 2)`` of each scaled impulse goes to
-``collision_dissipated``: the crushing's. An impact slow enough to be stopped within one step
+closing and the ice at the contact crushes (the overlap correction keeps the crushed overlap,
+up to one disc radius). The normal work ``-J_n (v_n + J_n K / 2)`` of each scaled impulse goes
+to ``collision_dissipated``, the crushing's (with friction, its tangential part's to
+``friction_dissipated``). An impact slow enough to be stopped within one step
 by ``F_c`` is the rigid law's to the bit. Derived and validated in docs/model.md ("Crushing")
 and docs/validation.md ("Impacts into elastic ice").
 """
@@ -23,7 +24,7 @@ from .base import STRESS, Effect, Key
 EFFECT = Effect(
     name="crushing",
     doc="beyond the paper: ice crushing at contacts, each contact's force at most crushing_pressure * "
-    "crushing_height (the impulse spread over the steps it takes); booked in collision_dissipated",
+    "crushing_height (the impulse spread over the steps it takes); its work booked in collision_dissipated",
     keys=(
         Key.positive(
             "crushing_pressure",

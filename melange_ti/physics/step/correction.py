@@ -8,11 +8,9 @@ measured from the discs. Sweeps repeat (at most ``MAX_CORRECT``) until none push
 push that drives a body back into the wall or a third body is undone too. The potential
 energy the pushes add is booked per moved body (``Acc.CORRECTION``, ``correction_work``).
 A pair whose overlap a named effect holds (its ``kept`` term: a bond beside a crevasse's
-walls, which touch through impulses) is not pushed. With crushing (effect ``crushing``) a
-push counts against the contact's room for the step as the impulse that would move the pair
-as far in one step, ``depth / ((1/m_1 + 1/m_2) dt)``: a contact that crushed this step keeps
-its overlap (the ice crushed) up to one disc radius, and one that crushed before is pushed out
-no faster than its crushing force could (docs/model.md, "Crushing").
+walls, which touch through impulses) is not pushed. With crushing (effect ``crushing``) an
+overlap is ice crushed at the contact: kept up to one disc radius (the smaller of the
+pair's), only the rest pushed out (docs/model.md, "Crushing").
 """
 
 import taichi as ti
@@ -22,7 +20,7 @@ from ..effects import KEPT
 from ..numerics import TINY
 from . import wall
 from .forces import any_on, contact_mass, potential_energy
-from .impulses import contact, contact_range, crush_room, in_pass
+from .impulses import contact, contact_range, in_pass
 from .pairs import normal_speed
 from .terms import term as term_of
 
@@ -55,7 +53,7 @@ def kept(fx: ti.template(), a: ti.template(), i, j) -> ti.i32:
 
 
 @ti.func
-def push(fx: ti.template(), a: ti.template(), sweep, i, j, slot, nx, nz, g_end, eager: ti.template()):
+def push(fx: ti.template(), a: ti.template(), sweep, i, j, nx, nz, g_end, eager: ti.template()):
     """Remove the overlap left after the drift, split by inverse mass (pair centre fixed).
 
     Between two icebergs the overlap is ``g_end`` (:func:`predicted_gap`) plus the pushes
@@ -63,8 +61,8 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, slot, nx, nz, g_end, 
     the discs. A body moved for the first time in this pass records its potential energy
     (``Body.POT_START``; with ``eager``, :func:`prepare_body` recorded it) and is marked
     with the sweep (``BodyInt.PUSHED``); the pass books the energy change per body. A pair
-    a named effect holds (:func:`kept`) is left as it is; with crushing, the depth is at most
-    what the contact's room allows (module docstring)."""
+    a named effect holds (:func:`kept`) is left as it is; with crushing, only the overlap
+    beyond one disc radius is pushed out (module docstring)."""
     b = ti.static(a.b)
     _m1, inv1, _i1 = contact_mass(fx, a, i)
     inv2 = 0.0
@@ -82,22 +80,14 @@ def push(fx: ti.template(), a: ti.template(), sweep, i, j, slot, nx, nz, g_end, 
     depth = -g
     if ti.static(fx.crushing):
         if g < -TINY and held == 0:
-            cap, room = crush_room(fx, a, i, slot)
-            per = (inv1 + inv2) * a.par[Param.DT]  # depth per unit of impulse
-            # the crushed overlap a pair keeps is at most one disc radius (deeper, the discs
-            # of flat faces would pass through each other): the rest is pushed out as without
+            # the overlap is ice crushed: kept up to one disc radius (deeper, the discs of
+            # flat faces would pass through each other), the rest pushed out as without
             r = b[i, Body.RADIUS]
             if j >= 0:
                 r = ti.min(r, b[j, Body.RADIUS])
-            beyond = depth - r
-            if depth >= room * per:
-                depth = room * per
-                a.cd[slot, i, Contact.SPENT] = cap
-            else:
-                a.cd[slot, i, Contact.SPENT] += depth / per
-            depth = ti.max(depth, beyond)
+            depth = -g - r
             if depth <= TINY:
-                held = 1  # no room left: the overlap is ice crushed this step
+                held = 1
     if g < -TINY and held == 0:
         pushed = 1
         if ti.static(not eager):
@@ -166,7 +156,7 @@ def sweep_body(fx: ti.template(), a: ti.template(), sweep, i, eager: ti.template
             if j >= 0:
                 moved = ti.max(moved, a.bi[j, BodyInt.PUSHED])
             if moved >= since:
-                pushed += push(fx, a, sweep, i, j, slot, nx, nz, g_end, eager)
+                pushed += push(fx, a, sweep, i, j, nx, nz, g_end, eager)
     return pushed
 
 
