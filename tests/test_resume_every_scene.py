@@ -3,8 +3,8 @@
 Every body shape and every effect that carries state beyond the icebergs' rows: polygons
 given by their corners beside a rectangle (with friction), a shelf cut by leaning faces and
 bonded across them (bonds breaking: the bonds' table), rectangles bonded into a shelf (on
-their own, and in waves: both tables side by side), and polygons in waves (the waves' grid
-and the wave step's phase). Each scene is run three ways:
+their own, and in waves: both tables side by side), polygons in waves (the waves' grid
+and the wave step's phase), and a row whose contacts crush (the overlap they keep). Each scene is run three ways:
 straight to ``T2``; to ``T1`` (off the snapshot and diagnostic grids) and then extended to
 ``T2`` with :func:`melange_ti.extend`; and stopped by Ctrl-C on the way to ``T2``, then
 resumed. Both continued files must equal the straight one in every dataset, bit for bit.
@@ -59,6 +59,15 @@ SCENES = {
         + "".join(f"[[iceberg]]\nx = {x}\nz = -0.55\nwidth = 1.0\nthickness = 1.4\n" for x in (1.0, 2.0, 3.0, 4.0))
         + "[[iceberg]]\nx = 5.8\nz = -0.55\ntheta = 0.2\nvx = -1.0\nwidth = 1.0\nthickness = 1.4\n"
         + "".join(f"[[bond]]\na = {a}\nb = {a + 1}\n" for a in range(3))
+    ),
+    # a free row struck into the wall, its contacts crushing (the overlap they keep goes on
+    # across the checkpoint), with friction
+    "crushing_friction": (
+        '[scene]\nname = "crushing"\neffects = ["gravity", "buoyancy", "drag", "collisions", "wall", "friction", "crushing"]\n'
+        "[physics]\nfriction = 0.3\n"
+        + COMMON
+        + "".join(f"[[iceberg]]\nx = {x}\nz = -0.55\nwidth = 1.0\nthickness = 1.4\n" for x in (1.0, 2.05, 3.1))
+        + "[[iceberg]]\nx = 4.9\nz = -0.55\ntheta = 0.2\nvx = -1.0\nwidth = 1.0\nthickness = 1.4\n"
     ),
     # the bonded row struck apart in waves: two owners' tables side by side (the grid's rows,
     # then the bonds')
@@ -115,6 +124,8 @@ def test_the_scenes_hold_what_they_are_meant_to(straight):
         assert np.abs(ref["snapshots/eta"][-1]).max() > 1e-4
     if "friction" in name:
         assert ref["diagnostics/friction_dissipated"][-1] > 0
+    if "crushing" in name:  # contacts that crush pass an impulse step after step
+        assert ref["diagnostics/contacts"].sum() > 200, ref["diagnostics/contacts"].sum()
 
 
 def test_extended_is_the_run_that_never_stopped(straight):

@@ -14,7 +14,8 @@ closing and the ice at the contact crushes (the overlap correction keeps the cru
 up to one disc radius). The normal work ``-J_n (v_n + J_n K / 2)`` of each scaled impulse goes
 to ``collision_dissipated``, the crushing's (with friction, its tangential part's to
 ``friction_dissipated``). An impact slow enough to be stopped within one step
-by ``F_c`` is the rigid law's to the bit. Derived and validated in docs/model.md ("Crushing")
+by ``F_c`` takes the rigid law's impulse to the bit; only the correction differs (it keeps an
+overlap up to a disc radius), so a run whose correction pushes nothing is the rigid law's. Derived and validated in docs/model.md ("Crushing")
 and docs/validation.md ("Impacts into elastic ice").
 """
 
