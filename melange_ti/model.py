@@ -54,7 +54,7 @@ from .physics.data.schema import (
     contact_width,
     own_rows,
 )
-from .physics.effects import hosts
+from .physics.effects import SUBSTEPPED, hosts
 from .physics.forms import colours, device
 from .physics.step import narrow
 from .scene import Icebergs, Scene
@@ -213,7 +213,10 @@ class Model:
         coloured = form.order == "coloured"
         # a polygon among the icebergs: every outline is read from its corners (the scene's most)
         vertices = int(bergs.corners.max()) if bergs.outline is not None else 0
-        self.fx = dataclasses.replace(scene.effects, coloured=coloured, vertices=vertices)
+        # the drift's sub-steps: the most any named effect asks for (Effect.substeps; 1: none, and
+        # then none is compiled)
+        self.substeps = max((int(_scene_value(scene, e.substeps)) for e in SUBSTEPPED if e.on(scene.effects)), default=1)
+        self.fx = dataclasses.replace(scene.effects, coloured=coloured, vertices=vertices, substepped=self.substeps > 1)
         self._colours: int | None = None  # colours of the last colouring, once read
         self.islands = form.islands
         self.device_parts = form.device_parts
@@ -306,6 +309,7 @@ class Model:
         par[Param.EPS] = float(np.finfo(self.np_real).eps)
         par[Param.SIX] = 6.0
         par[Param.TWELVE] = 12.0
+        par[Param.SUBSTEPS] = self.substeps
         for state in self.owned.values():
             for name, value in state.params().items():
                 par[getattr(Param, name)] = value
@@ -629,6 +633,14 @@ class Model:
                 continue
             if part.kind == "stage":
                 self._run(part, times)
+                continue
+            if part.kind == "substeps":
+                for _ in range(self.substeps - 1):
+                    for st in part.loop:
+                        if st.needs(self.fx):
+                            self._run(st, times)
+                for st in part.after:
+                    self._run(st, times)
                 continue
             redetect = True
             for _ in range(part.limit):

@@ -470,6 +470,29 @@ def test_bonds_and_waves_on_vulkan_match_the_cpu(tmp_path):
 
 @pytest.mark.gpu
 @needs_vulkan
+def test_bond_substeps_on_vulkan_match_the_cpu(tmp_path):
+    """The drift's sub-steps for the bonds (issue 50, item 8) on the device: a row of four
+    floating blocks bonded end to end, struck by a free one, at dt = 0.01 in 3 sub-steps, with
+    added mass; every dataset within the device tests' tolerance of the CPU, or within what one
+    ulp of x does to the CPU's own run (``_compare_bonded``), f64."""
+    z = -0.8946 * 1.4 + 0.7
+    bergs = "".join(f"[[iceberg]]\nx = {1.5 + q!r}\nz = {z!r}\n" for q in range(4))
+    bergs += f"[[iceberg]]\nx = {5.55!r}\nz = {z + 0.05!r}\ntheta = 0.02\nvx = -0.2\n"
+    text = (
+        '[scene]\neffects = ["gravity", "buoyancy", "drag", "added_mass", "collisions", "wall", "bonds"]\n'
+        "[physics]\ntensile_strength = 0.3\nshear_strength = 0.3\nbond_substeps = 3\n"
+        "[time]\ndt = 0.01\nduration = 1.5\n[output]\nsnapshot_interval = 0.5\ndiagnostic_interval = 0.1\n"
+        + bergs
+        + "".join(f"[[bond]]\na = {q}\nb = {q + 1}\n" for q in range(3))
+    )
+    _run_on_cpu_and_vulkan(tmp_path, text)
+    _compare_bonded(tmp_path, text, TOLERANCE["f64"])
+    with h5py.File(tmp_path / "cpu.h5", "r") as f:
+        assert float(np.max(f["diagnostics/bond_energy"][()])) > 1e-6  # the blow loaded the bonds
+
+
+@pytest.mark.gpu
+@needs_vulkan
 def test_drag_books_on_vulkan_in_f32_the_energy_its_velocities_lost(tmp_path):
     """A block coasting in the air with drag alone, 1000 steps in f32 on the device: its
     ``drag_dissipated`` within its own sum's rounding of the energy the stored velocities lost

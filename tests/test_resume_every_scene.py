@@ -2,7 +2,8 @@
 
 Every body shape and every effect that carries state beyond the icebergs' rows: polygons
 given by their corners beside a rectangle (with friction), a shelf cut by leaning faces and
-bonded across them (bonds breaking: the bonds' table), rectangles bonded into a shelf (on
+bonded across them (bonds breaking: the bonds' table; and again with added mass, its bonds'
+forces in sub-steps of the drift), rectangles bonded into a shelf (on
 their own, and in waves: both tables side by side), polygons in waves (the waves' grid
 and the wave step's phase), and a row whose contacts crush (the overlap they keep). Each scene is run three ways:
 straight to ``T2``; to ``T1`` (off the snapshot and diagnostic grids) and then extended to
@@ -81,6 +82,13 @@ SCENES = {
         "[[iceberg]]\nx = 4.0\nz = -0.55\ntheta = 0.3\nwidth = 1.0\nthickness = 1.4\n"
     ),
 }
+# the cut shelf with added mass, its bonds' forces in 3 sub-steps of the drift (the sub-steps
+# keep no state across a step: the checkpoint holds the step's own)
+SCENES["cut_shelf_bonds_substeps"] = (
+    SCENES["cut_shelf_bonds"]
+    .replace('"bonds"]', '"added_mass", "bonds"]')
+    .replace("strength_modulus = 5.0\n", "strength_modulus = 5.0\nbond_substeps = 3\n")
+)
 SCENES["bonded_row_waves"] = (
     SCENES["bonded_row"]
     .replace('"bonds"]', '"bonds", "waves"]')

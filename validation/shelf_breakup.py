@@ -32,6 +32,7 @@ of the run files and CSVs (``scan_cut20.csv``); ``cuts`` plots the scans of ever
 import argparse
 import csv
 import math
+import re
 import sys
 import time
 from pathlib import Path
@@ -42,6 +43,7 @@ import numpy as np
 import melange_ti as mt
 from melange_ti.analysis import stats
 from melange_ti.diagnostics import capsized
+from melange_ti.physics.effects import REGISTRY
 from melange_ti.physics.effects.bonds import pascals
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -93,10 +95,27 @@ def end_state(path: Path) -> dict:
     }
 
 
+# the contact law and resolution of a study (``--crushing``, ``--dt``, ``--discs``): None is the scene's
+VARIANT = {"crushing": False, "pressure": None, "dt": None, "discs": None, "count": None}
+
+
 def suffix(cut_tilt) -> str:
-    """``_cut20`` for cuts leaning 20 degrees; empty for vertical cuts (the file names of before)."""
+    """``_cut20`` for cuts leaning 20 degrees, then ``_crush`` with ice crushing at the contacts,
+    ``_dt0.005`` and ``_d56`` for another time step or disc count; empty for vertical cuts at the
+    scene's own (the file names of before)."""
     deg = float(cut_tilt or 0)
-    return f"_cut{deg:g}" if deg else ""
+    out = f"_cut{deg:g}" if deg else ""
+    if VARIANT["crushing"]:
+        out += "_crush"
+    if VARIANT["pressure"] is not None:
+        out += f"_p{VARIANT['pressure']:g}"
+    if VARIANT["dt"] is not None:
+        out += f"_dt{VARIANT['dt']:g}"
+    if VARIANT["discs"] is not None:
+        out += f"_d{VARIANT['discs']}"
+    if VARIANT["count"] is not None:  # a crushing scan of another shelf length (the run files name it already)
+        out += f"_n{VARIANT['count']}"
+    return out
 
 
 def run_path(tag: str, count, strength, seed, cut_tilt=0.0) -> Path:
@@ -115,6 +134,7 @@ def one(
         over |= {"physics.tensile_strength": strength, "physics.shear_strength": strength}
     if cut_tilt:
         over |= {"shelf.cut_tilt": math.radians(cut_tilt), "shelf.cut_tilt_std": math.radians(CUT_STD)}
+    over |= variant(scene_path)
     RUNS.mkdir(parents=True, exist_ok=True)
     out = run_path(tag, count, strength, seed, cut_tilt)
     t0 = time.time()
@@ -133,6 +153,22 @@ def one(
     }
     print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()), flush=True)
     return row
+
+
+def variant(scene_path: Path) -> dict:
+    """The scene overrides of :data:`VARIANT`: ``crushing`` added to the scene's effects (the
+    pre-cut reference too: its contacts crush alike), the step and the disc count."""
+    over = {}
+    if VARIANT["crushing"]:
+        named = mt.load_scene(scene_path).effects
+        over["scene.effects"] = [e.name for e in REGISTRY if getattr(named, e.name)] + ["crushing"]
+        if VARIANT["pressure"] is not None:
+            over["physics.crushing_pressure"] = VARIANT["pressure"]
+    if VARIANT["dt"] is not None:
+        over["time.dt"] = VARIANT["dt"]
+    if VARIANT["discs"] is not None:
+        over["contacts.discs"] = VARIANT["discs"]
+    return over
 
 
 def write(rows: list[dict], name: str) -> None:
@@ -200,7 +236,7 @@ def cuts() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    tilted = sorted((p.name for p in OUT.glob("scan_cut*.csv")), key=lambda n: float(n[len("scan_cut") : -len(".csv")]))
+    tilted = sorted((p.name for p in OUT.glob("scan_cut*.csv") if PLAIN_CUT.fullmatch(p.name)), key=lambda n: float(n[8:-4]))
     names = ["scan.csv", *tilted]
     fig, axes = plt.subplots(2, 1, figsize=(7.5, 7.5), sharex=True, layout="constrained")
     styles = zip(("k", "tab:blue", "tab:red", "tab:green", "tab:purple"), (8, 6, 4, 3, 2), strict=True)
@@ -238,6 +274,84 @@ def cuts() -> None:
     print(f"wrote {OUT / 'cuts.png'}")
 
 
+PLAIN_CUT = re.compile(r"scan_cut[-0-9.]+\.csv")  # a tilted scan with the rigid law at the scene's resolution
+
+
+def broke(r: dict, count: int | None = None) -> bool:
+    """The shelf broke: more than the front capsized, or under 90% of its bonds intact."""
+    n = int(count or float(r["count"]))
+    return float(r["capsized"]) > 1.5 / n or (r["bonds_intact"] != "" and float(r["bonds_intact"]) < 0.9)
+
+
+def critical(rows: list[dict]) -> dict[int, float]:
+    """Per seed, the highest strength at which the shelf broke (0: at none of the scan's)."""
+    out = {}
+    for seed in sorted({int(r["seed"]) for r in rows}):
+        hit = [float(r["strength"]) for r in rows if int(r["seed"]) == seed and broke(r)]
+        out[seed] = max(hit, default=0.0)
+    return out
+
+
+def laws() -> None:
+    """laws.png and laws.csv: the scans with rigid impulses against those with ice crushing at the
+    contacts (``--crushing``), at every tilt scanned both ways, and at the other time steps and disc
+    counts scanned with crushing: per seed the highest strength at which the shelf broke, and the
+    bonds intact at the end against the strength."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = sorted(p.name for p in OUT.glob("scan*_crush*.csv"))
+    table, pairs = [], []
+    for name in names:
+        crushed = read(name)
+        deg = float(crushed[0].get("cut_tilt_deg") or 0)
+        base = f"scan_cut{deg:g}_crush" if deg else "scan_crush"
+        variant = name[len(base) : -len(".csv")].lstrip("_") or "scene's dt and discs"
+        rigid = read(csv_name("scan", deg))
+        for law, rows in (("rigid", rigid), ("crushing", crushed)):
+            for seed, s in critical(rows).items():
+                table.append(
+                    {"tilt_deg": deg, "law": law, "variant": variant, "seed": seed, "critical": s, "critical_kPa": s * PA / 1e3}
+                )
+        if variant == "scene's dt and discs":
+            pairs.append((deg, rigid, crushed))
+    with open(OUT / "laws.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=("tilt_deg", "law", "variant", "seed", "critical", "critical_kPa"))
+        w.writeheader()
+        # a rigid scan is listed once per tilt
+        seen = set()
+        for r in table:
+            key = (r["tilt_deg"], r["law"], r["variant"] if r["law"] == "crushing" else "", r["seed"])
+            if key not in seen:
+                seen.add(key)
+                w.writerow(r)
+    fig, axes = plt.subplots(1, len(pairs), figsize=(4 * len(pairs), 4), sharey=True, layout="constrained", squeeze=False)
+    for ax, (deg, rigid, crushed) in zip(axes[0], sorted(pairs, key=lambda p: p[0]), strict=True):
+        for rows, colour, law in ((rigid, "tab:red", "rigid impulses"), (crushed, "tab:blue", "ice crushing")):
+            strengths = sorted({float(r["strength"]) for r in rows})
+            for seed, marker in zip(sorted({r["seed"] for r in rows}), "os^Dv", strict=False):
+                pts = [(float(r["strength"]) * PA / 1e3, float(r["bonds_intact"])) for r in rows if r["seed"] == seed]
+                ax.plot(*zip(*pts, strict=True), marker, color=colour, ms=5, mfc="none")
+            mean = [np.mean([float(r["bonds_intact"]) for r in rows if float(r["strength"]) == s]) for s in strengths]
+            ax.plot([s * PA / 1e3 for s in strengths], mean, "-", color=colour, label=f"{law} (seeds' mean)")
+        ax.set_xscale("log")
+        ax.set_title(f"cuts {deg:g}° ± {CUT_STD:g}°" if deg else "vertical cuts", fontsize=9)
+        ax.set_xlabel("tensile = shear strength (kPa at w = 70 m)")
+        ax.grid(alpha=0.3, which="both")
+    axes[0][0].set_ylabel("fraction of bonds intact at t = 1000")
+    axes[0][0].legend(fontsize=7)
+    n = int(pairs[0][1][0]["count"]) if pairs else 50
+    fig.suptitle(
+        f"An intact shelf of {n} pieces: rigid contact impulses against ice that crushes (seeds as markers)", fontsize=10
+    )
+    fig.savefig(OUT / "laws.png", dpi=120)
+    print(f"wrote {OUT / 'laws.png'}, {OUT / 'laws.csv'}")
+    for r in table:
+        print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
+
+
 def table() -> None:
     """The CSVs' end-state columns again from their run files (where still there)."""
     bases = ("scan", "sweep", "seeds")
@@ -259,26 +373,42 @@ def floats(text: str) -> list[float]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("what", choices=("scan", "sweep", "seeds", "table", "plot", "cuts"))
+    p.add_argument("what", choices=("scan", "sweep", "seeds", "table", "plot", "cuts", "laws"))
     p.add_argument("--count", type=int)
     p.add_argument("--duration", type=float)
     p.add_argument("--strengths", type=floats)
     p.add_argument("--strength", type=float)
     p.add_argument("--seeds", type=lambda t: [int(v) for v in t.split(",")])
     p.add_argument("--no-paper", action="store_true", help="sweep: skip the pre-cut reference runs")
+    p.add_argument("--add", action="store_true", help="scan: keep the CSV's rows at other strengths and seeds")
     p.add_argument("--cut-tilt", type=float, default=0.0, help="the cuts' lean in degrees, top seaward > 0 (2.5-degree spread)")
+    p.add_argument("--crushing", action="store_true", help="ice crushing at the contacts (effect crushing, its defaults)")
+    p.add_argument("--crushing-pressure", type=float, help="with --crushing: physics.crushing_pressure (default 2.0)")
+    p.add_argument("--dt", type=float, help="time.dt (default: the scene's 0.01)")
+    p.add_argument("--discs", type=int, help="contacts.discs (default: the scene's 28)")
     a = p.parse_args()
+    if a.crushing_pressure is not None and not a.crushing:
+        sys.exit("--crushing-pressure needs --crushing")
+    VARIANT.update(crushing=a.crushing, pressure=a.crushing_pressure, dt=a.dt, discs=a.discs)
     cut = a.cut_tilt
     if a.what == "plot":
         return plot()
     if a.what == "cuts":
         return cuts()
+    if a.what == "laws":
+        return laws()
     if a.what == "table":
         return table()
     if a.what == "scan":
         n, dur = a.count or 50, a.duration or 1000.0
+        if a.crushing and n != 50:
+            VARIANT["count"] = n
         strengths = a.strengths or [0.3552, 0.3, 0.25, 0.2, 0.17, 0.15, 0.13, 0.115, 0.1, 0.03, 0.01, 0.003, 0.001, 1e-4]
         rows = [one(SCENE, "shelf_breakup", n, dur, seed, s, cut) for seed in (a.seeds or [1]) for s in strengths]
+        if a.add:  # the scan's rows at other strengths or seeds kept, a run done again replaces its row
+            done = {(float(r["strength"]), int(r["seed"])) for r in rows}
+            kept = [r for r in read(csv_name("scan", cut)) if (float(r["strength"]), int(r["seed"])) not in done]
+            rows = sorted(kept + rows, key=lambda r: (int(r["seed"]), -float(r["strength"])))
         write(rows, csv_name("scan", cut))
         return None
     n, dur = a.count or 400, a.duration or 2000.0

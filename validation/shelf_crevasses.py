@@ -11,7 +11,8 @@ limit ``d = 1``: the paper's pre-cut row (no bonds). Why ``(1 - d)^2``: a ligame
 ``(1 - d) t`` under a moment ``M`` carries ``6 M / ((1 - d) t)^2``, so if the capsize puts the
 same moment on the joints the critical strength scales so, and ``s`` is the same at every
 depth. Each run's end state as in ``shelf_breakup.py`` (its ``end_state``), with the depth.
-Writes ``crevasses.csv`` and ``crevasses.png``.
+Writes ``crevasses.csv`` and ``crevasses.png``; with ``--crushing`` (ice crushing at the contacts,
+the effect's defaults) ``crevasses_crush.csv`` and ``.png``.
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ import numpy as np
 import melange_ti as mt
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from shelf_breakup import PA, SCENE, end_state  # noqa: E402  (this folder's study: its end state)
+import shelf_breakup  # noqa: E402  (this folder's study: its end state, and its contact law)
+from shelf_breakup import PA, SCENE, end_state  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -36,7 +38,8 @@ def one(depth: float, strength: float | None, seed: int, work: Path, count: int 
     over = {"shelf.count": count, "time.duration": duration, "time.seed": seed, "shelf.crevasse_depth": depth}
     if strength is not None:
         over |= {"physics.tensile_strength": strength, "physics.shear_strength": strength}
-    out = work / f"crev_{depth:g}_{strength}_{seed}.h5"
+    over |= shelf_breakup.variant(SCENE)  # --crushing
+    out = work / f"crev_{depth:g}_{strength}_{seed}{shelf_breakup.suffix(0)}.h5"
     t0 = time.time()
     mt.run(mt.load_scene(SCENE, overrides=over), out=out, overwrite=True, threads=1)
     row = {"crevasse_depth": depth, "strength": strength if strength is not None else "", "seed": seed}
@@ -61,13 +64,20 @@ def main() -> None:
     p.add_argument("--scaled", default="0.05,0.07,0.1,0.13,0.17,0.2,0.3,0.5", help="S (1 - d)^2 values")
     p.add_argument("--seeds", default="1,2,3,4")
     p.add_argument("--add", action="store_true", help="keep the rows of crevasses.csv already there (a scan extended)")
+    p.add_argument(
+        "--crushing",
+        action="store_true",
+        help="ice crushing at the contacts (effect crushing, its defaults): crevasses_crush.csv, .png",
+    )
     a = p.parse_args()
+    shelf_breakup.VARIANT["crushing"] = a.crushing
+    name = "crevasses_crush" if a.crushing else "crevasses"
     a.out.mkdir(parents=True, exist_ok=True)
     depths = [float(v) for v in a.depths.split(",")]
     scaled = [float(v) for v in a.scaled.split(",")]
     seeds = [int(v) for v in a.seeds.split(",")]
     rows = []
-    old = a.out / "crevasses.csv"
+    old = a.out / f"{name}.csv"
     if a.add and old.exists():
         with open(old) as fh:
             for r in csv.DictReader(fh):
@@ -85,7 +95,7 @@ def main() -> None:
                     rows.append(one(d, s / (1 - d) ** 2, seed, work))
     work.rmdir()
     rows.sort(key=lambda r: (r["seed"], r["crevasse_depth"], float(r["strength"] or 0)))
-    with open(a.out / "crevasses.csv", "w", newline="") as fh:
+    with open(a.out / f"{name}.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
@@ -122,9 +132,11 @@ def main() -> None:
     top = a1.secondary_yaxis("right", functions=(lambda s: s * PA / 1e3, lambda k: k * 1e3 / PA))
     top.set_ylabel("kPa at w = 70 m")
     title = "an intact shelf of 50 pieces through a field of surface crevasses: where the front's capsize breaks it"
+    if a.crushing:
+        title += " (ice crushing at the contacts)"
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(a.out / "crevasses.png", dpi=120)
+    fig.savefig(a.out / f"{name}.png", dpi=120)
 
 
 if __name__ == "__main__":

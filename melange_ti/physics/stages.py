@@ -11,6 +11,9 @@ The step is written once, as data (:data:`STEP`)::
         impulses                              sequential impulse pass          (impulses.py)
         check                                 again? Counter.AGAIN             (impulses.py)
     drift                                    x += dt v, theta += dt omega      (forces.py)
+    substeps, n - 1 times, if an effect      its forces at the new positions;
+      sub-steps (n sub-steps of dt / n)      their kick, then x += dt/n v      (forces.py)
+      then once                              what follows the position update
     correction                   if contacts  sequential overlap correction    (correction.py)
 
 and run in one of two forms that give the same bits:
@@ -35,11 +38,11 @@ from dataclasses import replace
 
 import taichi as ti
 
-from .data.schema import ACCUMULATORS, BODIES, COUNTERS, Arrays, Counter, allocated
-from .effects import REGISTRY
+from .data.schema import ACCUMULATORS, BODIES, COUNTERS, Arrays, Counter, Param, allocated
+from .effects import REGISTRY, SUBSTEPPED
 from .forms import colours, device, groups, islands
 from .step import broad, correction, forces, impulses, narrow, terms
-from .step.parts import Part, Rounds, Stage, always, collisions, contacts  # noqa: F401  (the step's vocabulary)
+from .step.parts import Part, Rounds, Stage, Substeps, always, collisions, contacts  # noqa: F401  (the step's vocabulary)
 
 MAX_DETECT = 16  # rounds of (detection,) impulse pass and check per step
 
@@ -54,6 +57,23 @@ def forces_stage(fx: ti.template(), a: ti.template()):
 def drift_stage(fx: ti.template(), a: ti.template()):
     for i in range(a.b.shape[0]):
         forces.drift(fx, a, i)
+
+
+@ti.func
+def substep_stage(fx: ti.template(), a: ti.template()):
+    for i in range(a.b.shape[0]):
+        forces.substep(fx, a, i)
+
+
+@ti.func
+def post_drift_stage(fx: ti.template(), a: ti.template()):
+    for i in range(a.b.shape[0]):
+        forces.post_drift(fx, a, i)
+
+
+def substepping(fx) -> bool:
+    """A named effect sub-steps the drift more than once (``fx.substepped``, set by the model)."""
+    return bool(fx.substepped)
 
 
 FORCES = Stage("forces", forces_stage, (Part(forces_stage),))
@@ -191,16 +211,39 @@ def stage_of(effect, stage: Stage) -> Stage:
     return replace(stage, needs=lambda fx: effect.on(fx) and stage.needs(fx), owner=effect.name)
 
 
+# the drift's sub-steps: each sub-stepped effect's forces at the new positions (its own loop),
+# then every iceberg's kick and x += dt/n v; after the last, what follows the position update
+SUBSTEPS = Substeps(
+    tuple(
+        stage_of(e, Stage(f"{e.name}_substep", terms.term(e, "substep_update"), (Part(terms.term(e, "substep_update")),)))
+        for e in SUBSTEPPED
+    )
+    + (Stage("substep", substep_stage, (Part(substep_stage),)),),
+    (Stage("post_drift", post_drift_stage, (Part(post_drift_stage),)),),
+    needs=substepping,
+)
+
 STEP = _with_effects(
     (
         FORCES,
         Rounds((BROAD, NARROW, ISLANDS), (IMPULSES, CHECK), MAX_DETECT, needs=contacts),
         DRIFT,
+        SUBSTEPS,
         CORRECTION,
     )
 )
+
+
 # every stage once, in the order STEP runs them
-STAGES = tuple(s for part in STEP for s in ((part,) if part.kind == "stage" else (*part.detect, *part.solve)))
+def _stages_of(part) -> tuple:
+    if part.kind == "stage":
+        return (part,)
+    if part.kind == "substeps":
+        return (*part.loop, *part.after)
+    return (*part.detect, *part.solve)
+
+
+STAGES = tuple(s for part in STEP for s in _stages_of(part))
 STAGE_NAMES = tuple(s.name for s in STAGES)
 
 
@@ -217,6 +260,13 @@ def one_step(fx: ti.template(), a: ti.template()):
         if ti.static(part.needs(fx)):
             if ti.static(part.kind == "stage"):
                 ti.static(serial_of(fx, part))(fx, a)
+            elif ti.static(part.kind == "substeps"):
+                for _sub in range(ti.cast(a.par[Param.SUBSTEPS], ti.i32) - 1):
+                    for st in ti.static(part.loop):
+                        if ti.static(st.needs(fx)):
+                            ti.static(serial_of(fx, st))(fx, a)
+                for st in ti.static(part.after):
+                    ti.static(serial_of(fx, st))(fx, a)
             else:
                 redetect = 1
                 for _round in range(part.limit):

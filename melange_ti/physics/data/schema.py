@@ -393,6 +393,7 @@ BASE_PARAMS = (
     # into x * (1/6), not correctly rounded (docs/devices.md); x / y rounds as on the CPU
     Column("SIX", "constant", "1", "6, the divisor of a segment's first moments"),
     Column("TWELVE", "constant", "1", "12, the divisor of a segment's second moments"),
+    Column("SUBSTEPS", "constant", "1", "n, the drift's sub-steps the named effects ask for (1: none; Effect.substeps)"),
 )
 
 

@@ -39,7 +39,9 @@ DAMPERS = tuple(e for e in REGISTRY if "damp" in e.terms)
 OFFSET_KICK = tuple(e for e in REGISTRY if "offset_kick" in e.terms)
 AFTER_KICK = tuple(e for e in REGISTRY if "after_kick" in e.terms)
 ADDED = tuple(e for e in REGISTRY if "added_inertia" in e.terms)
+PRE_DRIFT = tuple(e for e in REGISTRY if "pre_drift" in e.terms)
 POST_DRIFT = tuple(e for e in REGISTRY if "post_drift" in e.terms)
+SUBSTEPPED = tuple(e for e in REGISTRY if e.substeps)  # effects whose forces the drift sub-steps (bonds)
 POTENTIALS = tuple(e for e in REGISTRY if "potential" in e.terms)
 IMPULSE_LAW = tuple(e for e in REGISTRY if "impulse" in e.terms)  # effects that replace the contact law's impulse
 JOINED = tuple(e for e in REGISTRY if "joined" in e.terms)  # effects that hold a pair's contact (bonds)
@@ -85,7 +87,7 @@ def _named(self) -> tuple[Effect, ...]:
 
 Effects = make_dataclass(
     "Effects",
-    [*((n, bool, False) for n in NAMES), ("coloured", bool, False), ("vertices", int, 0)],
+    [*((n, bool, False) for n in NAMES), ("coloured", bool, False), ("vertices", int, 0), ("substepped", bool, False)],
     frozen=True,
     namespace={
         "contacts": property(_contacts),
@@ -96,7 +98,9 @@ Effects = make_dataclass(
         "__doc__": "Which effects are compiled into the model, and ``coloured``: the contact passes run colour by "
         "colour (``contacts.order``, :mod:`..forms.colours`), not in body order; ``vertices``: the most corners of "
         "an outline when any iceberg is a polygon (``[[iceberg]] vertices``: the kernels then read every outline "
-        "from its corners, :mod:`..shape.hydrostatics`), 0 when all are rectangles.",
+        "from its corners, :mod:`..shape.hydrostatics`), 0 when all are rectangles; ``substepped``: a named effect "
+        "sub-steps the drift, more than once (``Effect.substeps``: the kernels then compile the sub-steps; with one "
+        "sub-step the step is compiled as without them).",
     },
 )
 Effects.__module__ = __name__

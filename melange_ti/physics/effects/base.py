@@ -160,7 +160,13 @@ class Effect:
     ``damp(a, i, m, inertia)``                 applied to the velocities after the forces;
                                                ``m``, ``inertia``: the iceberg's with any
                                                added inertia
-    ``post_drift(a, i)``                       after the position update
+    ``pre_drift(a, i)``                        before the position update, the step's velocities final
+    ``post_drift(a, i)``                       after the position update (after its sub-steps)
+    ``substep_update(fx, a)``                  with ``substeps``: the effect's forces again at
+                                               the sub-step's positions (a loop of its own,
+                                               not per iceberg); ``force`` then gives them
+    ``substep_damp(a, i, m, inertia)``         with ``substeps``: applied after each sub-step's
+                                               kick of ``force`` (its damping)
     ``potential(a, i) -> U``                   its potential energy of iceberg i
     ``joined(a, i, j) -> ti.i32``              1 if the pair (i, j) has no contact (the effect
                                                holds it: an intact bond); ``joined_wall(a, i)``
@@ -211,6 +217,13 @@ class Effect:
     ``requires_doc`` why (the refusal's words)
     ``joins``        it joins the cells of an iceberg given as ``cells = [nx, nz]`` across
                      their shared faces (a scene with cells must name such an effect)
+    ``substeps``     the scene key of the sub-steps its stiff forces ask of the drift (``n``,
+                     an integer >= 1): the step's drift is ``n`` sub-steps of ``dt / n``,
+                     between which its ``substep_update`` and the kick of its ``force`` (times
+                     ``dt``: an effect that sub-steps gives ``dt / n`` of a step's share,
+                     its force over ``n``) and ``substep_damp`` run; every other force, the
+                     contacts and the correction once a step (:class:`..step.parts.Substeps`);
+                     compiled only when a scene asks for more than one (``Effects.substepped``)
 
     Its kernels and host code are linked to it by name from the floors above (a declaration
     imports neither): its Taichi side, the module of its terms and ``STAGES``
@@ -250,6 +263,7 @@ class Effect:
     requires: tuple[str, ...] = ()
     requires_doc: str = ""
     joins: bool = False
+    substeps: str = ""
 
     def __post_init__(self):
         unknown = set(self.terms) - set(TERMS)
@@ -275,7 +289,10 @@ TERMS = (
     "added_inertia",
     "after_kick",
     "damp",
+    "pre_drift",
     "post_drift",
+    "substep_update",
+    "substep_damp",
     "potential",
     "impulse",
     "joined",

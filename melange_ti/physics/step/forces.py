@@ -15,7 +15,7 @@ import taichi as ti
 
 from .. import fmath
 from ..data.schema import Body, Param
-from ..effects import ADDED, AFTER_KICK, DAMPERS, FORCES, OFFSET_KICK, POST_DRIFT, POTENTIALS
+from ..effects import ADDED, AFTER_KICK, DAMPERS, FORCES, OFFSET_KICK, POST_DRIFT, POTENTIALS, PRE_DRIFT, SUBSTEPPED
 from .terms import term
 
 HAS_TORQUE = tuple(e for e in FORCES if e.torque)
@@ -127,16 +127,57 @@ def orient(a: ti.template(), i):
 
 
 @ti.func
-def drift(fx: ti.template(), a: ti.template(), i):
+def move(a: ti.template(), i, dt):
+    """``x += dt v``, ``theta += dt omega``, and the new tilt's cos and sin."""
     b = ti.static(a.b)
-    dt = a.par[Param.DT]
     b[i, Body.X] += dt * b[i, Body.VX]
     b[i, Body.Z] += dt * b[i, Body.VZ]
     b[i, Body.TH] += dt * b[i, Body.OM]
     orient(a, i)
+
+
+@ti.func
+def drift(fx: ti.template(), a: ti.template(), i):
+    """The drift; when a named effect sub-steps it (``Effect.substeps``, ``fx.substepped``: ``n`` >
+    1) its first sub-step of ``dt / n``, the others in :func:`substep`."""
+    dt = a.par[Param.DT]
+    for e in ti.static(PRE_DRIFT):
+        if ti.static(e.on(fx)):
+            ti.static(term(e, "pre_drift"))(a, i)
+    if ti.static(fx.substepped):
+        move(a, i, dt / a.par[Param.SUBSTEPS])  # post_drift after the last sub-step (stages.SUBSTEPS)
+    else:
+        move(a, i, dt)
+        post_drift(fx, a, i)
+
+
+@ti.func
+def post_drift(fx: ti.template(), a: ti.template(), i):
     for e in ti.static(POST_DRIFT):
         if ti.static(e.on(fx)):
             ti.static(term(e, "post_drift"))(a, i)
+
+
+@ti.func
+def substep(fx: ti.template(), a: ti.template(), i):
+    """One more sub-step of the drift (``h = dt / n``): the sub-stepped effects' forces (set by
+    their ``substep_update`` at these positions; each gives its force over ``n``, so ``dt``
+    times it is ``h`` times the force) kick the velocities, with the iceberg's mass and what is
+    added to it at this step's kick, then their damping, then ``x += h v``. No other force
+    acts between: every other force, and the contacts, act once a step."""
+    b = ti.static(a.b)
+    dt = a.par[Param.DT]
+    m, _, inertia = contact_mass(fx, a, i)
+    for e in ti.static(SUBSTEPPED):
+        if ti.static(e.on(fx)):
+            f = ti.static(term(e, "force"))(a, i)
+            if ti.static(e.horizontal):
+                b[i, Body.VX] += dt * f[0] / m
+            b[i, Body.VZ] += dt * f[1] / m
+            if ti.static(e.torque):
+                b[i, Body.OM] += dt * f[2] / inertia
+            ti.static(term(e, "substep_damp"))(a, i, m, inertia)
+    move(a, i, dt / a.par[Param.SUBSTEPS])
 
 
 @ti.func

@@ -1,5 +1,5 @@
 """What a step is made of: its stages (:class:`Stage`), each a serial form and parallel parts
-(:class:`Part`), and repeated rounds (:class:`Rounds`). The step itself is
+(:class:`Part`), repeated rounds (:class:`Rounds`) and the drift's sub-steps (:class:`Substeps`). The step itself is
 :data:`melange_ti.physics.stages.STEP`; an effect adds stages of its own
 (``STAGES`` of its kernel module, :mod:`.terms`). No Taichi here: the parts' functions are the kernels'."""
 
@@ -79,3 +79,17 @@ class Rounds:
     limit: int
     needs: Callable = always
     kind: str = "rounds"
+
+
+@dataclass(frozen=True)
+class Substeps:
+    """The drift's sub-steps, for effects whose forces are stiffer than the step (``Effect.substeps``):
+    ``loop`` runs ``n - 1`` times after the drift's first sub-step, ``n`` the sub-steps the named
+    effects ask for (``Param.SUBSTEPS``, read by the host from the scene), then ``after`` once.
+    ``name``: what an effect's stage may be anchored after."""
+
+    loop: tuple[Stage, ...]
+    after: tuple[Stage, ...]
+    needs: Callable = always
+    kind: str = "substeps"
+    name: str = "substeps"

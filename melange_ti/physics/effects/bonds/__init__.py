@@ -48,8 +48,16 @@ budget (docs/bonds.md).
 
 **Time step.** The bonds' stiffest mode bounds the step: Gershgorin's bounds on the bond
 network's mass-weighted stiffness (``omega_max^2``) and dashpots (``gamma``) at t = 0, and the
-kick-drift step with the dashpot is stable for ``dt <= (sqrt(gamma^2 + 4 omega_max^2) -
-gamma) / omega_max^2``; a larger ``time.dt`` is refused.
+kick-drift step with the dashpot is stable for ``h <= (sqrt(gamma^2 + 4 omega_max^2) -
+gamma) / omega_max^2``; a larger ``time.dt / physics.bond_substeps`` is refused.
+
+**Sub-steps** (``physics.bond_substeps = n``, multiple time stepping as in r-RESPA, Tuckerman
+et al. 1992): the bonds' forces and dashpots kick with ``h = dt / n`` at the step's start, and
+the drift is ``n`` sub-steps of ``h``, the bonds' forces and dashpots again at each (no
+break check there: a bond breaks at a step's start); every other force, the contacts and the
+correction act once a step. Every ``dt`` above that the bonds' energy and books use is then
+``h`` (the bond's energy as the sub-step keeps it, ``U - h/2 dU/dt``). ``n = 1``: the step
+above, to the bit.
 
 Units: stresses and the modulus in the model's stress unit ``rho_w g w`` (703,868 Pa for
 ``w = 70 m``: :func:`pascals`).
@@ -204,6 +212,16 @@ EFFECT = Effect(
             lambda v: 0.0 <= v < 0.5,
             "must be in [0, 0.5)",
         ),
+        Key(
+            "bond_substeps",
+            1,
+            "1",
+            "n: the step's drift in n sub-steps of dt / n, the bonds' forces and dashpots again at each (every other "
+            "force, the contacts and the break check once a step), so the bonds' stable limit bounds dt / n, not dt "
+            "(docs/bonds.md, The time step; used with the bonds effect)",
+            lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 1,
+            "must be an integer >= 1",
+        ),
         Key.nonnegative(
             "bond_damping",
             0.05,
@@ -299,7 +317,19 @@ EFFECT = Effect(
         Column("BOND_V0Z", "scratch", "w / sqrt(w/g)", "bonds: vz right after the forces' kick"),
         Column("BOND_V0W", "scratch", "rad / sqrt(w/g)", "bonds: omega right after the forces' kick"),
     ),
-    terms=("force", "after_kick", "damp", "post_drift", "joined", "joined_wall", "kept"),
+    terms=(
+        "force",
+        "after_kick",
+        "damp",
+        "pre_drift",
+        "post_drift",
+        "substep_update",
+        "substep_damp",
+        "joined",
+        "joined_wall",
+        "kept",
+    ),
+    substeps="physics.bond_substeps",
     torque=True,
     horizontal=True,
     own_offset=True,  # bond_offset_work: its share of every velocity change, impulses' too

@@ -582,14 +582,18 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
     omega, gamma = omega_max(table, bergs, r), gamma_max(table, bergs, r)
     limit = dt_limit(omega, gamma)
     dt = scene.time.dt
-    if dt > limit and not scene.time.allow_unstable:
+    n = scene.physics.bond_substeps
+    if dt / n > limit and not scene.time.allow_unstable:
         digits = 10 ** (math.floor(math.log10(limit)) - 2)
+        need = math.ceil(dt / limit)
+        split = f"over physics.bond_substeps = {n}, " if n > 1 else ""
         return (
             "time.dt",
             dt,
-            f"above the bonds' stable limit {limit:.4g} (their stiffest mode bounded by omega_max = {omega:.4g}, "
-            f"their dashpots by {gamma:.4g}; physics.bond_modulus = {scene.physics.bond_modulus:g}); use time.dt <= "
-            f"{math.floor(limit / digits) * digits:.3g}, a smaller bond_modulus, or time.allow_unstable = true",
+            f"{split}above the bonds' stable limit {limit:.4g} (their stiffest mode bounded by omega_max = "
+            f"{omega:.4g}, their dashpots by {gamma:.4g}; physics.bond_modulus = {scene.physics.bond_modulus:g}); "
+            f"use time.dt <= {math.floor(n * limit / digits) * digits:.3g}, physics.bond_substeps >= {need}, a smaller "
+            "bond_modulus, or time.allow_unstable = true",
         )
     return None
 
@@ -729,6 +733,7 @@ class BondState(State):
         self.count = int(np.sum(self.table0[:, Bond.A] >= 0))
         self.rows = self.table0.shape[0]
         self.dt = scene.time.dt
+        self.substeps = scene.physics.bond_substeps
 
     def initial(self) -> np.ndarray:
         return self.table0.astype(self.np_real)
@@ -758,7 +763,7 @@ class BondState(State):
         nan = np.full(self.count, np.nan)
         label = fragments(self.n, t)
         return {
-            "bond_energy": np.array(bond_energy(t, bodies, self.dt)),
+            "bond_energy": np.array(bond_energy(t, bodies, self.dt / self.substeps)),  # as the (sub-)step keeps it
             "bond_energy_at_step": np.array(bond_energy(t, bodies)),  # the diagnostic's: U at the positions
             "bonds_intact": np.array(float(np.sum(on))),
             "fragments": np.array(float(np.unique(label).size)),

@@ -41,12 +41,24 @@ def points(a: ti.template(), r):
 
 
 @ti.func
-def update(a: ti.template(), r):
-    """Bond ``r`` at the step's start: breaks it if its stress exceeds its strength (booking
-    the energy it held in ``REL``), else sets its elastic and dashpot forces."""
+def step_of(a: ti.template()):
+    """``h = dt / n``: the step the bonds' forces kick with (``physics.bond_substeps``; ``dt``, not
+    divided, when 1: ``a.fx.substepped`` off)."""
+    h = a.par[Param.DT]
+    if ti.static(a.fx.substepped):
+        h = h / a.par[Param.SUBSTEPS]
+    return h
+
+
+@ti.func
+def update(a: ti.template(), r, check: ti.template()):
+    """Bond ``r`` at the step's start (``check``): breaks it if its stress exceeds its strength
+    (booking the energy it held in ``REL``), else sets its elastic and dashpot forces; at a
+    later sub-step (not ``check``) only sets them."""
     own = ti.static(a.own)
     b = ti.static(a.b)
-    own[r, Bond.REL] = 0.0
+    if ti.static(check):
+        own[r, Bond.REL] = 0.0
     gx, gz, ta, tb = 0.0, 0.0, 0.0, 0.0
     dxf, dzf, da, db = 0.0, 0.0, 0.0, 0.0
     if own[r, Bond.INTACT] > 0.5:
@@ -84,6 +96,9 @@ def update(a: ti.template(), r):
                 tensile = False
                 if sig > 0.0:
                     tensile = 0.5 * (fn * ti.max(dn, 0.0) + m * dth) >= own[r, Bond.GCL]
+        if ti.static(not check):
+            tensile = False
+            tau = 0.0
         if tensile or tau > own[r, Bond.SS]:
             own[r, Bond.INTACT] = 0.0
             own[r, Bond.BREAK_SIG] = sig
@@ -93,7 +108,7 @@ def update(a: ti.template(), r):
             if j >= 0:
                 vbcx, vbcz = b[j, Body.VX], b[j, Body.VZ]
             work = gx * (b[i, Body.VX] - vbcx) + gz * (b[i, Body.VZ] - vbcz) + ta * oma + tb * omb
-            own[r, Bond.REL] = 0.5 * (fn * dn + fs * ds + m * dth) + 0.5 * a.par[Param.DT] * work
+            own[r, Bond.REL] = 0.5 * (fn * dn + fs * ds + m * dth) + 0.5 * step_of(a) * work
             gx, gz, ta, tb = 0.0, 0.0, 0.0, 0.0
         else:
             # the dashpot on the relative velocity of the two points, and of the tilts
@@ -113,7 +128,8 @@ def update(a: ti.template(), r):
                 mbx, mbz = 0.0, 0.0
             da = max_ * dzf - maz * dxf + cw
             db = -(mbx * dzf - mbz * dxf) - cw
-            own[r, Bond.AGE] += 1.0
+            if ti.static(check):
+                own[r, Bond.AGE] += 1.0
     own[r, Bond.GX] = gx
     own[r, Bond.GZ] = gz
     own[r, Bond.TA] = ta
@@ -137,7 +153,16 @@ def update_all(fx: ti.template(), a: ti.template()):
     """The stage: every bond (parallel over bonds in the parallel forms)."""
     lo, hi = rows(a)
     for r in range(lo, hi):
-        update(a, r)
+        update(a, r, True)
+
+
+@ti.func
+def substep_update(fx: ti.template(), a: ti.template()):
+    """At a later sub-step of the drift: every intact bond's forces and dashpot at the
+    sub-step's positions and velocities (no break check; parallel over bonds)."""
+    lo, hi = rows(a)
+    for r in range(lo, hi):
+        update(a, r, False)
 
 
 @ti.func
@@ -156,13 +181,18 @@ def _gather(a: ti.template(), i, fx_col: ti.template(), fz_col: ti.template(), t
 
 @ti.func
 def force(a: ti.template(), i):
-    """The elastic forces and torques of body i's bonds (set by :func:`update` this step)."""
-    return _gather(a, i, Bond.GX, Bond.GZ, Bond.TA, Bond.TB)
+    """The elastic forces and torques of body i's bonds (set by :func:`update` this step), over
+    the sub-steps ``n``: the kick's ``dt`` times it is ``h`` times the force (``n`` = 1: exactly
+    the force)."""
+    f = _gather(a, i, Bond.GX, Bond.GZ, Bond.TA, Bond.TB)
+    if ti.static(a.fx.substepped):
+        f = f / a.par[Param.SUBSTEPS]
+    return f
 
 
 @ti.func
 def after_kick(a: ti.template(), i):
-    """The body's velocities right after the forces' kick, for :func:`post_drift`'s booking."""
+    """The body's velocities right after the forces' kick, for :func:`pre_drift`'s booking."""
     b = ti.static(a.b)
     b[i, Body.BOND_V0X] = b[i, Body.VX]
     b[i, Body.BOND_V0Z] = b[i, Body.VZ]
@@ -170,12 +200,11 @@ def after_kick(a: ti.template(), i):
 
 
 @ti.func
-def damp(a: ti.template(), i, m, inertia):
-    """The dashpots' kick on body i after the forces; the kinetic energy it removes is booked
-    exactly in ``BOND_DAMPED``, and the energy of its bonds that broke this step in
-    ``BOND_RELEASED``."""
+def _dashpots(a: ti.template(), i, m, inertia):
+    """The dashpots' kick on body i (over ``h``), the kinetic energy it removes booked in
+    ``BOND_DAMPED``; returns the change of (vx, vz, omega)."""
     b = ti.static(a.b)
-    dt = a.par[Param.DT]
+    dt = step_of(a)
     d = _gather(a, i, Bond.DX, Bond.DZ, Bond.DA, Bond.DB)
     vx, vz, om = b[i, Body.VX], b[i, Body.VZ], b[i, Body.OM]
     nvx = vx + dt * d[0] / m
@@ -187,6 +216,16 @@ def damp(a: ti.template(), i, m, inertia):
     # v^2 - v'^2 as (v - v') (v + v'): the dashpots' small change of a large velocity loses no digits
     linear = (vx - nvx) * (vx + nvx) + (vz - nvz) * (vz + nvz)
     b[i, Body.BOND_DAMPED] += 0.5 * m * linear + 0.5 * inertia * (om - nom) * (om + nom)
+    return nvx - vx, nvz - vz, nom - om
+
+
+@ti.func
+def damp(a: ti.template(), i, m, inertia):
+    """The dashpots' kick on body i after the forces; the kinetic energy it removes is booked
+    exactly in ``BOND_DAMPED``, and the energy of its bonds that broke this step in
+    ``BOND_RELEASED``."""
+    b = ti.static(a.b)
+    _dashpots(a, i, m, inertia)
     rel = 0.0
     for k in ti.static(range(MAX_BONDS)):
         r = ti.cast(b[i, Body.BOND_1 + k], ti.i32) - 1
@@ -199,19 +238,34 @@ def damp(a: ti.template(), i, m, inertia):
 
 
 @ti.func
-def post_drift(a: ti.template(), i):
-    """The offset: the bonds' energy as the step keeps it, ``U + dt/2 F . v``, changes by
-    ``dt/2 F . dv`` when anything after the forces' kick changes the body's velocity (the
+def pre_drift(a: ti.template(), i):
+    """The offset: the bonds' energy as the step keeps it, ``U + h/2 F . v``, changes by
+    ``h/2 F . dv`` when anything after the forces' kick changes the body's velocity (the
     dashpot, drag, impulses), which those terms' own ledgers, counting kinetic energy, do not
-    see: booked in ``BOND_OFFSET`` as ``dt/2 F . (v_new - v_kicked)``. (The forces' kick
-    itself is the step's own: the energy it conserves.)"""
+    see: booked in ``BOND_OFFSET`` as ``h/2 F . (v_new - v_kicked)``, before the drift (its
+    sub-steps kick the velocities again). (The forces' kick itself is the step's own: the
+    energy it conserves.)"""
     b = ti.static(a.b)
-    dt = a.par[Param.DT]
     f = _gather(a, i, Bond.GX, Bond.GZ, Bond.TA, Bond.TB)
     dv = ti.Vector(
         [b[i, Body.VX] - b[i, Body.BOND_V0X], b[i, Body.VZ] - b[i, Body.BOND_V0Z], b[i, Body.OM] - b[i, Body.BOND_V0W]]
     )
-    b[i, Body.BOND_OFFSET] += 0.5 * dt * f.dot(dv)
+    b[i, Body.BOND_OFFSET] += 0.5 * step_of(a) * f.dot(dv)
+
+
+@ti.func
+def substep_damp(a: ti.template(), i, m, inertia):
+    """At a later sub-step, after the kick of the bonds' forces: their dashpots (booked in
+    ``BOND_DAMPED``) and the offset their change of velocity makes in the bonds' energy as the
+    sub-step keeps it, ``h/2 F . dv`` (as :func:`pre_drift`)."""
+    dvx, dvz, dom = _dashpots(a, i, m, inertia)
+    f = _gather(a, i, Bond.GX, Bond.GZ, Bond.TA, Bond.TB)
+    a.b[i, Body.BOND_OFFSET] += 0.5 * step_of(a) * f.dot(ti.Vector([dvx, dvz, dom]))
+
+
+@ti.func
+def post_drift(a: ti.template(), i):
+    """After the drift: the crack tips (:func:`_tips`)."""
     _tips(a, i)
 
 
@@ -261,7 +315,7 @@ def held_energy(a: ti.template(), r):
         ta = rax * gz - raz * gx - (own[r, Bond.KN] - own[r, Bond.KS]) * dn * ds + m
         tb = -(rbx * gz - rbz * gx) - m
         work = gx * (b[i, Body.VX] - vbx) + gz * (b[i, Body.VZ] - vbz) + ta * b[i, Body.OM] + tb * omb
-        out = 0.5 * (fn * dn + fs * ds + m * dth) + 0.5 * a.par[Param.DT] * work
+        out = 0.5 * (fn * dn + fs * ds + m * dth) + 0.5 * step_of(a) * work
     return out
 
 
@@ -346,15 +400,28 @@ def joined_wall(a: ti.template(), i) -> ti.i32:
     return found
 
 
-# at the step's start, before the forces: every bond's forces, and its breaking; around the
-# overlap correction (with contacts): what its pushes put into the bonds
+# at the step's start, before the forces: every bond's forces, and its breaking; after the
+# drift and its sub-steps, and around the overlap correction (with contacts): what its pushes put into the bonds
 STAGES = (
     ("start", Stage("bonds", update_all, (Part(update_all),))),
-    ("drift", Stage("bonds_before_correction", before_correction, (Part(before_correction),), needs=contacts)),
+    ("substeps", Stage("bonds_before_correction", before_correction, (Part(before_correction),), needs=contacts)),
     (
         "correction",
         Stage("bonds_correction", correction_stage, (Part(after_correction), Part(book_correction)), needs=contacts),
     ),
 )
 
-__all__ = ["force", "after_kick", "damp", "post_drift", "joined", "joined_wall", "kept", "STAGES", "update"]
+__all__ = [
+    "force",
+    "after_kick",
+    "damp",
+    "pre_drift",
+    "post_drift",
+    "substep_update",
+    "substep_damp",
+    "joined",
+    "joined_wall",
+    "kept",
+    "STAGES",
+    "update",
+]
