@@ -215,11 +215,16 @@ def stage_of(effect, stage: Stage) -> Stage:
 # then every iceberg's kick and x += dt/n v; after the last, what follows the position update
 SUBSTEPS = Substeps(
     tuple(
-        stage_of(e, Stage(f"{e.name}_substep", terms.term(e, "substep_update"), (Part(terms.term(e, "substep_update")),)))
+        stage_of(
+            e,
+            Stage(
+                f"{e.name}_substep", terms.term(e, "substep_update"), (Part(terms.term(e, "substep_update")),), needs=substepping
+            ),
+        )
         for e in SUBSTEPPED
     )
-    + (Stage("substep", substep_stage, (Part(substep_stage),)),),
-    (Stage("post_drift", post_drift_stage, (Part(post_drift_stage),)),),
+    + (Stage("substep", substep_stage, (Part(substep_stage),), needs=substepping),),
+    (Stage("post_drift", post_drift_stage, (Part(post_drift_stage),), needs=substepping),),
     needs=substepping,
 )
 

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from melange_ti.model import Model
+from melange_ti.physics.effects.bonds import Bond
 from melange_ti.scene import DENSITY_RATIO, SceneError, loads
 
 from .scenes import KERNEL_FORMS
@@ -73,8 +74,8 @@ def test_a_pair_stepped_past_the_bonds_limit_rings_at_the_substeps_frequency(tmp
     ``theta = 2 asin(omega h / 2)`` (``omega^2 = 2 k_n / m``), so its stretch sampled once a step
     obeys ``d_(k+1) + d_(k-1) = 2 cos(3 theta) d_k`` (the step's map has trace ``2 cos(3 theta)``
     and determinant 1), which is asserted to 1e-9 from the run's every step, 200 of them (a
-    period is shorter than a step here, so no zero crossing can be read); the budget stays
-    closed to 1e-9."""
+    period, 0.106, is under two steps of 0.081 here, so no zero crossing can be read); the
+    budget stays closed to 1e-9."""
     with pytest.raises(SceneError, match="stable limit") as exc:
         loads(free_pair(0.05, 1, 0.1, damping=0.0, vx=0.01))
     limit = float(str(exc.value).split("stable limit ")[1].split(" ")[0])
@@ -83,8 +84,11 @@ def test_a_pair_stepped_past_the_bonds_limit_rings_at_the_substeps_frequency(tmp
         loads(free_pair(dt, 1, 0.1, damping=0.0, vx=0.01))
     text = str(exc.value)
     assert "\n" not in text and "physics.bond_substeps >= 3" in text, text
-    with pytest.raises(SceneError, match=r"over physics\.bond_substeps = 2, above the bonds' stable limit"):
+    with pytest.raises(SceneError, match=r"over physics\.bond_substeps = 2, above the bonds' stable limit") as exc:
         loads(free_pair(dt, 2, 0.1, damping=0.0, vx=0.01))
+    named = float(str(exc.value).split("use time.dt <= ")[1].split(",")[0])
+    assert 1.9 * limit < named <= 2 * limit
+    loads(free_pair(named, 2, 0.1, damping=0.0, vx=0.01))  # the step it names is accepted
     n = 3
     pair = free_pair(dt, n, 200 * dt, damping=0.0, vx=0.01, tumbling=False, snapshot=dt)
     d = run_text(tmp_path, pair, "past.h5")
@@ -113,6 +117,28 @@ def test_every_form_gives_the_same_bits_with_substeps():
     """The struck row (floating, drag, contacts, bonds breaking under the blow) at twice its
     step in 2 sub-steps, 200 steps in every kernel form: the serial form's bits."""
     same_bits_breaking_some(in_every_form(substepped_row(), 200))
+
+
+@pytest.mark.parametrize("form", ["serial", "device parts"])
+def test_coloured_passes_with_substeps_give_the_parallel_forms_bits(form):
+    """The coloured order (a device's default) with sub-steps: the struck row in 2 sub-steps,
+    200 steps; the serial form and the device's parts on the CPU give the parallel form's state
+    and bond table, bit for bit, with bonds broken and kept."""
+    text = substepped_row().replace("[time]", '[contacts]\norder = "coloured"\n[time]')
+
+    def run(**kw):
+        m = Model(loads(text), **kw)
+        m.advance(200)
+        return m.state(), m.own_rows()
+
+    state, table = run(mode="parallel")
+    other, other_table = run(mode="serial") if form == "serial" else run(mode="parallel", device_parts=True)
+    assert Model(loads(text)).fx.coloured and Model(loads(text)).substeps == 2
+    for k in state:
+        np.testing.assert_array_equal(other[k], state[k], err_msg=k)
+    np.testing.assert_array_equal(other_table, table)
+    intact = table[table[:, Bond.A] >= 0, Bond.INTACT]
+    assert 0 < intact.sum() < intact.size, "the case must break some bonds and keep others"
 
 
 def test_the_struck_rows_budget_closes_with_substeps(tmp_path):

@@ -160,12 +160,13 @@ def test_derived_lists():
 def test_parameters_come_from_scene_keys():
     """Every parameter slot but the derived ones names the scene key it is filled from, and
     that key exists (derived: the largest bounding radius, machine epsilon, and the wave
-    grid's spacing, a power-of-2 division of the domain, and rounding quantum)."""
+    grid's spacing, a power-of-2 division of the domain, and rounding quantum, and the drift's
+    sub-steps, the most any named effect asks for)."""
     from melange_ti import scene
 
     sc = scene.load(None)
     for c in schema.PARAMS.columns:
-        if c.name in ("BOUND_MAX", "EPS", "SIX", "TWELVE", "WAVE_DX", "WAVE_Q"):
+        if c.name in ("BOUND_MAX", "EPS", "SIX", "TWELVE", "SUBSTEPS", "WAVE_DX", "WAVE_Q"):
             assert c.source is None
             continue
         section, key = c.source.split(".")

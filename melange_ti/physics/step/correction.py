@@ -16,29 +16,48 @@ pair's), only the rest pushed out (docs/model.md, "Crushing").
 import taichi as ti
 
 from ..data.schema import Acc, Body, BodyInt, Contact, Param
-from ..effects import KEPT
+from ..effects import KEPT, SUBSTEPPED
 from ..numerics import TINY
 from . import wall
 from .forces import any_on, contact_mass, potential_energy
 from .impulses import contact, contact_range, in_pass
-from .pairs import normal_speed
+from .pairs import normal_speed, relative_normal
+from .terms import module as term_module
 from .terms import term as term_of
 
 MAX_CORRECT = 4  # correction sweeps while some overlap is still being pushed apart
 
 
+def drift_sum(fx) -> tuple:
+    """With sub-steps (``fx.substepped``): the body columns in which the sub-stepped effect named
+    sums the velocities each sub-step drifted with (its kernel module's ``DRIFT_SUM``)."""
+    return next(term_module(e).DRIFT_SUM for e in SUBSTEPPED if e.on(fx))
+
+
 @ti.func
-def predicted_gap(a: ti.template(), i, j, px, pz, nx, nz, gap):
+def predicted_gap(fx: ti.template(), a: ti.template(), i, j, px, pz, nx, nz, gap):
     """Gap of the contact (i, j) at the end of the step: its gap when found, advanced
     linearly with the final velocities (arms from the bodies' positions at the start of
-    the step). Call after the drift and before any correction."""
+    the step); with sub-steps, with the velocities the sub-steps drifted with, ``h`` times
+    their sum each (:func:`drift_sum`). Call after the drift and before any correction."""
     b = ti.static(a.b)
-    dt = a.par[Param.DT]
-    rx1 = px - (b[i, Body.X] - dt * b[i, Body.VX])
-    rz1 = pz - (b[i, Body.Z] - dt * b[i, Body.VZ])
-    rx2 = px - (b[j, Body.X] - dt * b[j, Body.VX])
-    rz2 = pz - (b[j, Body.Z] - dt * b[j, Body.VZ])
-    return gap + dt * normal_speed(a, i, j, rx1, rz1, rx2, rz2, nx, nz)
+    out = 0.0
+    if ti.static(fx.substepped):
+        h = a.par[Param.DT] / a.par[Param.SUBSTEPS]
+        cx, cz, com = ti.static(drift_sum(fx))
+        rx1 = px - (b[i, Body.X] - h * b[i, cx])
+        rz1 = pz - (b[i, Body.Z] - h * b[i, cz])
+        rx2 = px - (b[j, Body.X] - h * b[j, cx])
+        rz2 = pz - (b[j, Body.Z] - h * b[j, cz])
+        out = gap + h * relative_normal(a, i, j, cx, cz, com, rx1, rz1, rx2, rz2, nx, nz)
+    else:
+        dt = a.par[Param.DT]
+        rx1 = px - (b[i, Body.X] - dt * b[i, Body.VX])
+        rz1 = pz - (b[i, Body.Z] - dt * b[i, Body.VZ])
+        rx2 = px - (b[j, Body.X] - dt * b[j, Body.VX])
+        rz2 = pz - (b[j, Body.Z] - dt * b[j, Body.VZ])
+        out = gap + dt * normal_speed(a, i, j, rx1, rz1, rx2, rz2, nx, nz)
+    return out
 
 
 @ti.func
@@ -129,6 +148,7 @@ def prepare_body(fx: ti.template(), a: ti.template(), i, eager: ti.template()):
     if ti.static(fx.collisions):
         for s in range(a.bi[i, BodyInt.NCONTACT]):
             cd[s, i, Contact.GAP] = predicted_gap(
+                fx,
                 a,
                 i,
                 a.cp[s, i],

@@ -584,7 +584,7 @@ def check_start(scene, bergs) -> tuple[str, object, str] | None:
     dt = scene.time.dt
     n = scene.physics.bond_substeps
     if dt / n > limit and not scene.time.allow_unstable:
-        digits = 10 ** (math.floor(math.log10(limit)) - 2)
+        digits = 10 ** (math.floor(math.log10(n * limit)) - 2)  # three digits of the largest step, rounded down
         need = math.ceil(dt / limit)
         split = f"over physics.bond_substeps = {n}, " if n > 1 else ""
         return (

@@ -251,16 +251,30 @@ def pre_drift(a: ti.template(), i):
         [b[i, Body.VX] - b[i, Body.BOND_V0X], b[i, Body.VZ] - b[i, Body.BOND_V0Z], b[i, Body.OM] - b[i, Body.BOND_V0W]]
     )
     b[i, Body.BOND_OFFSET] += 0.5 * step_of(a) * f.dot(dv)
+    if ti.static(a.fx.substepped):  # from here the sum of the sub-steps' drift velocities (DRIFT_SUM)
+        b[i, Body.BOND_V0X] = b[i, Body.VX]
+        b[i, Body.BOND_V0Z] = b[i, Body.VZ]
+        b[i, Body.BOND_V0W] = b[i, Body.OM]
+
+
+# with sub-steps, after the step's first drift: the columns that sum the velocities each sub-step
+# drifted with (the overlap correction's predicted gaps read the step's displacement from them)
+DRIFT_SUM = (Body.BOND_V0X, Body.BOND_V0Z, Body.BOND_V0W)
 
 
 @ti.func
 def substep_damp(a: ti.template(), i, m, inertia):
     """At a later sub-step, after the kick of the bonds' forces: their dashpots (booked in
     ``BOND_DAMPED``) and the offset their change of velocity makes in the bonds' energy as the
-    sub-step keeps it, ``h/2 F . dv`` (as :func:`pre_drift`)."""
+    sub-step keeps it, ``h/2 F . dv`` (as :func:`pre_drift`); then adds the velocity the sub-step
+    drifts with to :data:`DRIFT_SUM`."""
+    b = ti.static(a.b)
     dvx, dvz, dom = _dashpots(a, i, m, inertia)
     f = _gather(a, i, Bond.GX, Bond.GZ, Bond.TA, Bond.TB)
-    a.b[i, Body.BOND_OFFSET] += 0.5 * step_of(a) * f.dot(ti.Vector([dvx, dvz, dom]))
+    b[i, Body.BOND_OFFSET] += 0.5 * step_of(a) * f.dot(ti.Vector([dvx, dvz, dom]))
+    b[i, Body.BOND_V0X] += b[i, Body.VX]  # the velocity this sub-step drifts with (DRIFT_SUM)
+    b[i, Body.BOND_V0Z] += b[i, Body.VZ]
+    b[i, Body.BOND_V0W] += b[i, Body.OM]
 
 
 @ti.func
@@ -423,5 +437,6 @@ __all__ = [
     "joined_wall",
     "kept",
     "STAGES",
+    "DRIFT_SUM",
     "update",
 ]
