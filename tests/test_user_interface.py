@@ -211,10 +211,14 @@ def test_h5py_and_xarray_open_a_running_file_held_by_open_run(tmp_path):
         assert p.poll() is None and seen, f"the run ended before the test could read it ({seen})"
         # A running file may be caught mid-write, and a handle the process holds keeps the
         # file's end as HDF5 read it at the first open ("addr overflow" when later metadata
-        # points past it): every handle is closed and the whole check tried again, briefly.
-        # A refusal (e.g. "file locking flag values don't match") fails every try.
+        # points past it, which a loaded machine made likely even over 40 tries): the run is
+        # paused (SIGSTOP) while the whole check runs on a file that does not change, every
+        # handle closed and the check tried again, the run let on between tries, if it was
+        # paused mid-write. A refusal (e.g. "file locking flag values don't match") fails
+        # every try.
         last = None
         for _ in range(40):
+            os.kill(p.pid, signal.SIGSTOP)
             try:
                 with mt.open_run(path) as tree:
                     assert not tree.attrs["complete"]
@@ -228,7 +232,9 @@ def test_h5py_and_xarray_open_a_running_file_held_by_open_run(tmp_path):
                 break
             except OSError as exc:
                 last = exc
-                time.sleep(0.05)
+            finally:
+                os.kill(p.pid, signal.SIGCONT)
+            time.sleep(0.2)
         else:
             raise AssertionError(f"h5py.File / xr.open_datatree next to mt.open_run: {last}")
     finally:
