@@ -106,6 +106,13 @@ def test_terms_are_imported_by_name_not_by_a_string():
         for term in effect.terms:
             module = impulses.LAWS[effect.name] if term == "impulse" else terms.module(effect)
             assert callable(getattr(module, term)), (effect.name, term)
+    from melange_ti.physics.data.schema import Body
+    from melange_ti.physics.effects import SUBSTEPPED
+
+    for effect in SUBSTEPPED:  # the sub-steps' drift velocities: three distinct columns of the iceberg row
+        cols = terms.module(effect).DRIFT_SUM
+        assert len(set(cols)) == 3 and all(0 <= c < Body.SIZE for c in cols), (effect.name, cols)
+        assert {"pre_drift", "substep_damp", "substep_update"} <= set(effect.terms), effect.name
 
 
 # ---------------------------------------------------------------- floors: the import graph

@@ -309,24 +309,20 @@ def laws() -> None:
         deg = float(crushed[0].get("cut_tilt_deg") or 0)
         base = f"scan_cut{deg:g}_crush" if deg else "scan_crush"
         variant = name[len(base) : -len(".csv")].lstrip("_") or "scene's dt and discs"
-        rigid = read(csv_name("scan", deg))
-        for law, rows in (("rigid", rigid), ("crushing", crushed)):
+        laws_here = (("crushing", crushed),)
+        if variant == "scene's dt and discs":  # a tilt's rigid scan: listed once, beside its crushing one
+            rigid = read(csv_name("scan", deg))
+            laws_here = (("rigid", rigid), *laws_here)
+            pairs.append((deg, rigid, crushed))
+        for law, rows in laws_here:
             for seed, s in critical(rows).items():
                 table.append(
                     {"tilt_deg": deg, "law": law, "variant": variant, "seed": seed, "critical": s, "critical_kPa": s * PA / 1e3}
                 )
-        if variant == "scene's dt and discs":
-            pairs.append((deg, rigid, crushed))
     with open(OUT / "laws.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=("tilt_deg", "law", "variant", "seed", "critical", "critical_kPa"))
         w.writeheader()
-        # a rigid scan is listed once per tilt
-        seen = set()
-        for r in table:
-            key = (r["tilt_deg"], r["law"], r["variant"] if r["law"] == "crushing" else "", r["seed"])
-            if key not in seen:
-                seen.add(key)
-                w.writerow(r)
+        w.writerows(table)
     fig, axes = plt.subplots(1, len(pairs), figsize=(4 * len(pairs), 4), sharey=True, layout="constrained", squeeze=False)
     for ax, (deg, rigid, crushed) in zip(axes[0], sorted(pairs, key=lambda p: p[0]), strict=True):
         for rows, colour, law in ((rigid, "tab:red", "rigid impulses"), (crushed, "tab:blue", "ice crushing")):

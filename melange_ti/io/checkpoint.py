@@ -20,7 +20,8 @@ def checkpoint_path(run_path: str | Path) -> Path:
     return run_path.with_name(run_path.name + ".ckpt")
 
 
-FORMAT_VERSION = 10  # 10: an owning effect's table gained columns (its neighbours along a line, a crack's tip);
+FORMAT_VERSION = 11  # 11: an owning effect's table gained columns (the largest stresses its rows' check saw);
+# 10: an owning effect's table gained columns (its neighbours along a line, a crack's tip);
 # 9: an owning effect's table gained a column (TOUCHING: a joint's walls touch);
 # 8: the icebergs' outlines (a polygon's corners), besides width and thickness;
 # 7: an owning effect's table gained a column; an effect's per-body state carried (BODY_CARRIED);
@@ -30,8 +31,8 @@ FORMAT_VERSION = 10  # 10: an owning effect's table gained columns (its neighbou
 # 3: ledgers and counters named by the schema
 # Versions a resume still reads: a version-7 checkpoint lacks only the outlines, which a run of
 # rectangles does not need (Simulation._check_resume refuses one of a run with polygons); a
-# version-8 or -9 one differs only in an owning effect's table, refused there when it is narrower
-READABLE = (7, 8, 9, FORMAT_VERSION)
+# version-8 to -10 one differs only in an owning effect's table, refused there when it is narrower
+READABLE = (7, 8, 9, 10, FORMAT_VERSION)
 
 
 def save(path: str | Path, data: dict[str, np.ndarray | str | int | float]) -> None:

@@ -167,3 +167,32 @@ def test_a_scene_without_bonds_has_one_substep():
 
 
 assert KERNEL_FORMS  # the forms compared above (tests/physics/scenes.py)
+
+
+def test_the_correction_predicts_a_contacts_gap_from_the_substeps_drift():
+    """A bonded pair rings 3/8 of a period within one step of 4 sub-steps beside a third block
+    ``g0`` away: B starts moving away from C and ends the step moving towards it, having
+    drifted away and only part of the way back. The overlap correction predicts each contact's
+    gap at the step's end from the velocities the bodies drifted with (``h`` times the
+    sub-steps' sum), not ``dt`` times the final one, which would put the pair in overlap and
+    push C: C must not move (the gap stays open)."""
+    v0, g0, n = 0.1, 0.002, 4
+    omega = math.sqrt(2 * E_N * H / (DENSITY_RATIO * H))  # the pair's k_n = E' t / L, t = H, L = 1; m = r H
+    dt = 0.75 * math.pi / omega  # three eighths of a period: B turns round within the step
+    text = (
+        '[scene]\nname = "three"\neffects = ["bonds", "collisions"]\n'
+        f"[physics]\nbond_modulus = {E}\nbond_damping = 0.0\nbond_substeps = {n}\n"
+        f"[time]\ndt = {dt!r}\nduration = {10 * dt!r}\n[output]\nsnapshot_interval = {dt!r}\ndiagnostic_interval = {dt!r}\n"
+        f"[[iceberg]]\nx = 0.0\nvx = {v0}\n[[iceberg]]\nx = 1.0\nvx = {-v0}\n[[iceberg]]\nx = {2.0 + g0!r}\n"
+        "[[bond]]\na = 0\nb = 1\n"
+    )
+    m = Model(loads(text))
+    before = m.state()
+    m.advance(1)
+    after = m.state()
+    gap = after["x"][2] - after["x"][1] - 1.0
+    assert gap > g0, "B drifted away from C over the step"
+    assert after["vx"][1] > 0.5 * v0, "and ends it moving towards C"
+    assert g0 - dt * after["vx"][1] < 0, "dt times the final velocity would have closed the gap"
+    for k in ("x", "z", "theta", "vx", "vz", "omega"):
+        assert after[k][2] == before[k][2], k

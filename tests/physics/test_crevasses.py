@@ -355,12 +355,12 @@ def test_a_start_from_a_crevassed_run_keeps_which_walls_touch(tmp_path):
     np.testing.assert_array_equal(table[: own.shape[0], Bond.TOUCHING], own[:, Bond.TOUCHING])
 
 
-@pytest.mark.parametrize("version, fewer", [(8, 8), (9, 7)])
+@pytest.mark.parametrize("version, fewer", [(8, 10), (9, 9), (10, 2)])
 def test_a_checkpoint_whose_bond_table_is_an_earlier_versions_is_refused(tmp_path, version, fewer):
     """A checkpoint of an earlier melange_ti, whose bond table had fewer columns (format 8: no
     ``TOUCHING``; 9: no neighbours and crack tips, ``TIP0`` ... ``GCL`` and ``TIP``), is refused a
-    resume in one line naming the table and its columns; the run's files are left as they
-    were."""
+    resume in one line naming the table and its columns (format 10: no peak stresses,
+    ``PEAK_SIG`` and ``PEAK_TAU``); the run's files are left as they were."""
     import hashlib
 
     from melange_ti.errors import RunError

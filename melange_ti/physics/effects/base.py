@@ -167,6 +167,12 @@ class Effect:
                                                not per iceberg); ``force`` then gives them
     ``substep_damp(a, i, m, inertia)``         with ``substeps``: applied after each sub-step's
                                                kick of ``force`` (its damping)
+    ``DRIFT_SUM`` (a tuple, not a function)    with ``substeps``: the iceberg row's three
+                                               columns (x, z, angle) in which its
+                                               ``pre_drift`` and ``substep_damp`` sum the
+                                               velocities the sub-steps drifted with; the
+                                               overlap correction predicts a contact's gap
+                                               from them (``step.correction.drift_sum``)
     ``potential(a, i) -> U``                   its potential energy of iceberg i
     ``joined(a, i, j) -> ti.i32``              1 if the pair (i, j) has no contact (the effect
                                                holds it: an intact bond); ``joined_wall(a, i)``

@@ -134,6 +134,14 @@ TABLE = Table(
         Column("AGE", "state", "1", "steps taken while intact (at a break: the step it broke at)"),
         Column("BREAK_SIG", "state", "rho_w g w", "tensile stress when it broke (0: intact)"),
         Column("BREAK_TAU", "state", "rho_w g w", "shear stress when it broke (0: intact)"),
+        Column(
+            "PEAK_SIG",
+            "state",
+            "rho_w g w",
+            "the largest tensile stress the break check has seen (each step's start while intact, the breaking "
+            "one's too; 0 at t = 0)",
+        ),
+        Column("PEAK_TAU", "state", "rho_w g w", "the largest shear stress the break check has seen (0 at t = 0)"),
         Column("GX", "scratch", "rho_w g w^2", "elastic force on A this step, x (on B: minus it)"),
         Column("GZ", "scratch", "rho_w g w^2", "elastic force on A this step, z"),
         Column("TA", "scratch", "rho_w g w^3", "elastic torque on A this step"),
@@ -385,6 +393,22 @@ EFFECT = Effect(
             ("bond",),
             "rho_w g w",
             "shear stress when it broke (NaN: intact)",
+            updated=True,
+        ),
+        Dataset(
+            "bonds/peak_stress",
+            ("bond",),
+            "rho_w g w",
+            "the largest tensile stress F_n / t + 6 |M| / t^2 its break check saw up to the last snapshot (at each step's "
+            "start while intact, the breaking step's included; 0 if never in tension): with the strengths, where a weaker "
+            'shelf would have broken first (docs/bonds.md, "Which bond breaks first")',
+            updated=True,
+        ),
+        Dataset(
+            "bonds/peak_shear",
+            ("bond",),
+            "rho_w g w",
+            "the largest shear stress its break check saw up to the last snapshot",
             updated=True,
         ),
         Dataset(

@@ -771,4 +771,6 @@ class BondState(State):
             "break_time": np.where(broken, t[: self.count, Bond.AGE] * self.dt, nan),
             "break_stress": np.where(broken, t[: self.count, Bond.BREAK_SIG], nan),
             "break_shear": np.where(broken, t[: self.count, Bond.BREAK_TAU], nan),
+            "peak_stress": t[: self.count, Bond.PEAK_SIG].copy(),
+            "peak_shear": t[: self.count, Bond.PEAK_TAU].copy(),
         }

@@ -90,6 +90,9 @@ def update(a: ti.template(), r, check: ti.template()):
         tb = -(rbx * gz - rbz * gx) - m
         # in tension by its strength; at a crack's tip (fracture_energy on) by the energy that opens it (mode I:
         # its stretch, if stretched, and its bending; its shear is mode II, left to the shear strength)
+        if ti.static(check):
+            own[r, Bond.PEAK_SIG] = ti.max(own[r, Bond.PEAK_SIG], sig)
+            own[r, Bond.PEAK_TAU] = ti.max(own[r, Bond.PEAK_TAU], tau)
         tensile = sig > own[r, Bond.ST]
         if own[r, Bond.GCL] > 0.0:
             if own[r, Bond.TIP] > 0.5:
