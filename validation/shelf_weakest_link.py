@@ -25,9 +25,10 @@ own run's, and a variant's theory is the mean over its seeds of each seed's law.
 of their ``S_c`` (``1 +- 1e-6``): no bond breaks above, the predicted bond breaks first below;
 beside it, whether that first break took the shelf apart (more than the front capsized, or
 under 90% of the bonds intact: ``shelf_breakup.py``'s measure). Writes
-``peaks.csv`` (every bond of every variant), ``laws.csv`` (each variant's theory), ``seeds.csv``
+``peaks.csv.gz`` (every bond of every variant and seed), ``laws.csv`` (each variant's theory), ``seeds.csv``
 (per seed: ``S_c`` from the draws, the model's check), ``weakest_link.png`` and the printed lines
-in ``weakest_link.log``.
+in ``weakest_link.log``, the last the unbreakable runs' energy budgets (``--budgets``: that line
+alone, from the run files left in ``runs/shelf_weakest_link/``).
 """
 
 from __future__ import annotations
@@ -137,6 +138,11 @@ def law_of(p: np.ndarray, m: float) -> dict:
     return {"p_max": float(p.max()), "n_eff": total / float(p.max()) ** m, **q}
 
 
+def deep_share(p: np.ndarray, depth: np.ndarray, m: float, beyond: float = 20.0) -> float:
+    """The share of the weakest link's weight ``sum_i p_i^m`` carried by bonds deeper than ``beyond`` w."""
+    return float(np.sum(p[depth > beyond] ** m) / np.sum(p**m))
+
+
 def cdf(s: np.ndarray, p: np.ndarray, m: float) -> np.ndarray:
     return np.exp(-np.sum((p[None, :] / (weibull_scale(m) * s[:, None])) ** m, axis=1))
 
@@ -159,8 +165,12 @@ def main() -> None:
     p.add_argument("--seeds", type=int, default=16, help="seeds: each an unbreakable run of every variant")
     p.add_argument("--check", type=int, default=16, help="seeds the model runs again either side of S_c (the scene)")
     p.add_argument("--check-long", type=int, default=4, help="seeds the model runs again either side of S_c (N = 400)")
+    p.add_argument("--budgets", action="store_true", help="only the budgets of the runs left in runs/shelf_weakest_link/")
     a = p.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
+    if a.budgets:
+        with open(a.out / "weakest_link.log", "a") as fh:
+            return budgets(fh)
     m = mt.load_scene(SCENE).physics.strength_modulus
     fh = open(a.out / "weakest_link.log", "w")
     log(f"# {' '.join(sys.argv)}; Weibull modulus {m}; strengths in kPa at w = 70 m", fh)
@@ -186,9 +196,10 @@ def main() -> None:
                      "depth": float(got["depth"][k]), "w": float(w[k])}
                 )  # fmt: skip
                 for i in range(got["p"].size):
+                    sig, tau = f"{got['sig'][i]:.6g}", f"{got['tau'][i]:.6g}"
                     peak_rows.append(
                         {"law": law, "variant": name, "seed": seed, "bond": i, "a": int(got["a"][i]), "b": int(got["b"][i]),
-                         "depth": float(got["depth"][i]), "peak_stress": float(got["sig"][i]), "peak_shear": float(got["tau"][i])}
+                         "depth": float(got["depth"][i]), "peak_stress": sig, "peak_shear": tau}
                     )  # fmt: skip
             found[(law, name)] = per
             mix = np.mean([cdf(grid, g["p"], m) for g in per], axis=0)  # over the seeds' trajectories
@@ -202,7 +213,8 @@ def main() -> None:
                    "p_max_kPa_min": pm.min(), "p_max_kPa_max": pm.max(), "p_max_at_wall": wall,
                    "n_eff_mean": float(np.mean([law_of(g["p"], m)["n_eff"] for g in per])), **q,
                    "S_c_kPa_median": float(np.median(sc)) * KPA, "S_c_kPa_min": sc[0] * KPA, "S_c_kPa_max": sc[-1] * KPA,
-                   "gap_to_theory": gap}  # fmt: skip
+                   "gap_to_theory": gap, "deep_share": float(np.mean([deep_share(g["p"], g["depth"], m) for g in per])),
+                   "p_max_depths": " ".join(f"{v:g}" for v in sorted({g["depth"][np.argmax(g["p"])] for g in per}))}  # fmt: skip
             law_rows.append(row)
             log(
                 f"{law:8s} {name:9s} p_max {pm.mean():6.1f} kPa ({pm.min():.1f}-{pm.max():.1f}; at the wall in {wall:.0%}), "
@@ -212,7 +224,7 @@ def main() -> None:
                 fh,
             )
             write(a.out / "laws.csv", law_rows)
-    write(a.out / "peaks.csv", peak_rows)
+    write(a.out / "peaks.csv.gz", peak_rows)
 
     # the model's check of the first break, a hair either side of each seed's S_c (the scene)
     for row in seed_rows:
@@ -238,11 +250,42 @@ def main() -> None:
         )
     write(a.out / "seeds.csv", seed_rows)
     plot(a.out, found, seed_rows, law_rows, grid, m)
+    budgets(fh)
     fh.close()
 
 
+def budgets(fh) -> None:
+    """The energy budget of every unbreakable run left in ``runs/shelf_weakest_link/``: its
+    largest residual over the run relative to the largest released energy."""
+    from melange_ti.analysis import stats
+
+    worst = []
+    for path in sorted(RUNS.glob("*.h5")):
+        if path.name.startswith("check_"):
+            continue
+        with h5py.File(path, "r") as f:
+            budget = stats.energy_budget({k: f["diagnostics"][k][:] for k in f["diagnostics"]})
+        rel = np.max(np.abs(budget["residual"])) / max(float(np.max(np.abs(budget["released"]))), 1e-30)
+        worst.append((float(rel), path.name))
+    if worst:
+        rels = [w for w, _ in worst]
+        log(f"budget: {len(worst)} runs, largest |residual| / released over each run: median {np.median(rels):.2g}, "
+            f"largest {max(worst)[0]:.2g} ({max(worst)[1]})", fh)  # fmt: skip
+
+
 def write(path: Path, rows: list[dict]) -> None:
+    """``rows`` as CSV (gzipped when ``path`` ends in ``.gz``; mtime 0: the same rows, the same bytes)."""
+    import gzip
+    import io
+
     keys = list(dict.fromkeys(k for r in rows for k in r))
+    if path.suffix == ".gz":
+        text = io.StringIO(newline="")
+        w = csv.DictWriter(text, keys)
+        w.writeheader()
+        w.writerows(rows)
+        path.write_bytes(gzip.compress(text.getvalue().encode(), mtime=0))
+        return
     with open(path, "w", newline="") as fh:
         w = csv.DictWriter(fh, keys)
         w.writeheader()
