@@ -2,7 +2,7 @@
 capsize puts on each bond of an intact shelf, and the distribution of the strength below which
 a bond breaks, against Weibull weakest-link theory, over many seeds.
 
-    python validation/shelf_weakest_link.py --out validation/results/shelf_weakest_link   # ~45 min on one core
+    python validation/shelf_weakest_link.py --out validation/results/shelf_weakest_link   # ~50 min on one core
 
 ``runs/shelf_breakup.toml`` (the paper's icebergs as one bonded shelf, the front one free and
 tilted) run once with unbreakable bonds (``tensile_strength = shear_strength = 1e6``; the
@@ -17,8 +17,9 @@ first break, and breaks if and only if ``S < S_c = max_i p_i / w_i``. Over the s
 them.
 
 Variants (each a run per seed, ``--seeds`` of them): the scene (N = 50, dt = 0.01, 28 discs), half
-the step, twice the discs, N = 100, 200 and 400, and at N = 400 half the step and twice the
-discs; each with rigid impulses and with ice crushing at the contacts (effect ``crushing``, its
+the step, twice the discs, N = 100, 200 and 400, and at N = 400 half the step, twice and four
+times the discs (``--variants NAME ...`` runs only those named, their rows replacing theirs in
+the tables); each with rigid impulses and with ice crushing at the contacts (effect ``crushing``, its
 defaults). The seed draws the front's tilt as well as the strengths, so each seed's peaks are its
 own run's, and a variant's theory is the mean over its seeds of each seed's law. For the scene,
 ``--check`` seeds (and at N = 400 ``--check-long``) are run again by the model a hair either side
@@ -35,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import gzip
 import math
 import sys
 import time
@@ -62,6 +64,7 @@ VARIANTS = (
     ("N = 400", 400, None, None),
     ("N = 400, dt / 2", 400, 0.005, None),
     ("N = 400, 56 discs", 400, None, 56),
+    ("N = 400, 112 discs", 400, None, 112),
 )
 LAWS = ("rigid", "crushing")
 QUANTILES = (0.05, 0.5, 0.95)
@@ -101,7 +104,7 @@ def run(over: dict, name: str) -> Path:
 def peaks(law: str, count: int, dt, discs, duration: float, seed: int) -> dict:
     """The unbreakable shelf's bonds: peak ``p``, where (``depth``: the bond's distance from the
     shelf's seaward face at t = 0, in widths; the wall's bond at the shelf's length), and kind."""
-    tag = f"{law}_{count}_{dt or 'dt'}_{discs or 'discs'}_{seed}".replace(".", "p")
+    tag = f"{law}_{count}_{dt or 'dt'}_{discs or 'discs'}_{seed}{'' if duration == 1000 else f'_t{duration:g}'}".replace(".", "p")
     out = run(overrides(law, count, dt, discs, duration, seed, BIG), tag)
     with h5py.File(out, "r") as f:
         g = f["bonds"]
@@ -166,18 +169,27 @@ def main() -> None:
     p.add_argument("--check", type=int, default=16, help="seeds the model runs again either side of S_c (the scene)")
     p.add_argument("--check-long", type=int, default=4, help="seeds the model runs again either side of S_c (N = 400)")
     p.add_argument("--budgets", action="store_true", help="only the budgets of the runs left in runs/shelf_weakest_link/")
+    p.add_argument("--plot", action="store_true", help="only the figure, drawn again from the tables in --out")
+    p.add_argument("--variants", nargs="+", choices=[v[0] for v in VARIANTS], metavar="NAME",
+                   help="run only these variants, their rows replacing theirs in the tables in --out")  # fmt: skip
     a = p.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
     if a.budgets:
         with open(a.out / "weakest_link.log", "a") as fh:
-            return budgets(fh)
+            return budgets(fh, a.duration)
     m = mt.load_scene(SCENE).physics.strength_modulus
-    fh = open(a.out / "weakest_link.log", "w")
-    log(f"# {' '.join(sys.argv)}; Weibull modulus {m}; strengths in kPa at w = 70 m", fh)
-    found, law_rows, peak_rows, seed_rows = {}, [], [], []
     grid = np.geomspace(5, 2000, 4000) / KPA
+    if a.plot:
+        found, seed_rows = tables(a.out)
+        return plot(a.out, found, seed_rows, grid, m)
+    chosen = set(a.variants or [v[0] for v in VARIANTS])
+    fh = open(a.out / "weakest_link.log", "a" if a.variants else "w")
+    log(f"# {' '.join(sys.argv)}; Weibull modulus {m}; strengths in kPa at w = 70 m", fh)
+    law_rows, peak_rows, seed_rows = [], [], []
     for law in LAWS:
         for name, count, dt, discs in VARIANTS:
+            if name not in chosen:
+                continue
             t0 = time.time()
             per = []
             for seed in range(1, a.seeds + 1):
@@ -201,7 +213,6 @@ def main() -> None:
                         {"law": law, "variant": name, "seed": seed, "bond": i, "a": int(got["a"][i]), "b": int(got["b"][i]),
                          "depth": float(got["depth"][i]), "peak_stress": sig, "peak_shear": tau}
                     )  # fmt: skip
-            found[(law, name)] = per
             mix = np.mean([cdf(grid, g["p"], m) for g in per], axis=0)  # over the seeds' trajectories
             q = {f"q{int(100 * x)}_kPa": float(np.interp(x, mix, grid)) * KPA for x in QUANTILES}
             sc = np.sort([g["s_c"] for g in per])
@@ -223,8 +234,8 @@ def main() -> None:
                 f"{row['S_c_kPa_max']:.1f}), largest gap to the theory's CDF {gap:.3f} ({time.time() - t0:.0f} s)",
                 fh,
             )
-            write(a.out / "laws.csv", law_rows)
-    write(a.out / "peaks.csv.gz", peak_rows)
+            write(a.out / "laws.csv", merged(a.out / "laws.csv", law_rows, chosen) if a.variants else law_rows)
+    write(a.out / "peaks.csv.gz", merged(a.out / "peaks.csv.gz", peak_rows, chosen) if a.variants else peak_rows)
 
     # the model's check of the first break, a hair either side of each seed's S_c (the scene)
     for row in seed_rows:
@@ -248,20 +259,25 @@ def main() -> None:
             f"broken, first {first}, {'apart' if apart else 'holds'}",
             fh,
         )
-    write(a.out / "seeds.csv", seed_rows)
-    plot(a.out, found, seed_rows, law_rows, grid, m)
-    budgets(fh)
+    write(a.out / "seeds.csv", merged(a.out / "seeds.csv", seed_rows, chosen) if a.variants else seed_rows)
+    plot(a.out, *tables(a.out), grid, m)
+    budgets(fh, a.duration)
     fh.close()
 
 
-def budgets(fh) -> None:
-    """The energy budget of every unbreakable run left in ``runs/shelf_weakest_link/``: its
-    largest residual over the run relative to the largest released energy."""
+def budgets(fh, duration: float) -> None:
+    """The energy budget of every unbreakable run of ``duration`` left in
+    ``runs/shelf_weakest_link/``: its largest residual over the run relative to the largest
+    released energy."""
     from melange_ti.analysis import stats
 
     worst = []
     for path in sorted(RUNS.glob("*.h5")):
-        if path.name.startswith("check_"):
+        if (
+            path.name.startswith("check_")
+            or (duration == 1000) == ("_t" in path.name)
+            or (duration != 1000 and not path.stem.endswith(f"_t{duration:g}".replace(".", "p")))
+        ):
             continue
         with h5py.File(path, "r") as f:
             budget = stats.energy_budget({k: f["diagnostics"][k][:] for k in f["diagnostics"]})
@@ -275,7 +291,6 @@ def budgets(fh) -> None:
 
 def write(path: Path, rows: list[dict]) -> None:
     """``rows`` as CSV (gzipped when ``path`` ends in ``.gz``; mtime 0: the same rows, the same bytes)."""
-    import gzip
     import io
 
     keys = list(dict.fromkeys(k for r in rows for k in r))
@@ -292,7 +307,42 @@ def write(path: Path, rows: list[dict]) -> None:
         w.writerows(rows)
 
 
-def plot(out: Path, found: dict, seed_rows: list[dict], law_rows: list[dict], grid: np.ndarray, m: float) -> None:
+def merged(path: Path, rows: list[dict], chosen: set) -> list[dict]:
+    """The rows of the table at ``path`` (for ``--variants``): those of the variants not
+    ``chosen`` as they were, and ``rows`` for the chosen, in the order of LAWS and VARIANTS."""
+    kept = []
+    if path.exists():
+        with (gzip.open if path.suffix == ".gz" else open)(path, "rt") as fh:
+            kept = [r for r in csv.DictReader(fh) if r["variant"] not in chosen]
+    order = {(law, v[0]): k for k, (law, v) in enumerate((law, v) for law in LAWS for v in VARIANTS)}
+    return sorted(kept + rows, key=lambda r: order[(r["law"], r["variant"])])  # stable: the seeds' order kept
+
+
+def tables(out: Path) -> tuple[dict, list[dict]]:
+    """The peaks and the seeds' rows as ``main`` holds them, read back from ``peaks.csv.gz``
+    and ``seeds.csv`` (for ``--plot``)."""
+    peaks_rows = list(csv.DictReader(gzip.open(out / "peaks.csv.gz", "rt")))
+    found = {}
+    for law in LAWS:
+        for name, *_ in VARIANTS:
+            rows = [r for r in peaks_rows if r["law"] == law and r["variant"] == name]
+            for seed in sorted({int(r["seed"]) for r in rows}):
+                mine = [r for r in rows if int(r["seed"]) == seed]
+                p = np.maximum([float(r["peak_stress"]) for r in mine], [float(r["peak_shear"]) for r in mine])
+                found.setdefault((law, name), []).append({"p": p, "depth": np.array([float(r["depth"]) for r in mine])})
+    seed_rows = []
+    for r in csv.DictReader(open(out / "seeds.csv")):
+        row = {**r, "S_c": float(r["S_c"]), "S_c_kPa": float(r["S_c_kPa"]), "seed": int(r["seed"]), "bond": int(r["bond"])}
+        if r.get("broken_below"):
+            row.update(broken_above=int(r["broken_above"]), broken_below=int(r["broken_below"]))
+        else:
+            for key in ("broken_above", "broken_below", "first_below", "apart_below"):
+                row.pop(key, None)
+        seed_rows.append(row)
+    return found, seed_rows
+
+
+def plot(out: Path, found: dict, seed_rows: list[dict], grid: np.ndarray, m: float) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -302,15 +352,17 @@ def plot(out: Path, found: dict, seed_rows: list[dict], law_rows: list[dict], gr
     for col, law in enumerate(LAWS):
         ax = axes[0, col]
         for name, colour in (("scene", "C0"), ("N = 400", "C3")):
-            for k, g in enumerate(found[(law, name)]):
+            for k, g in enumerate(found.get((law, name), [])):
                 order = np.argsort(g["depth"])
                 ax.semilogy(g["depth"][order], g["p"][order] * KPA, "-", color=colour, lw=0.6, alpha=0.6,
                             label=f"{name}, {len(found[(law, name)])} seeds" if k == 0 else None)  # fmt: skip
         ax.set(xlabel="bond's distance from the shelf's face (w)", ylabel="peak stress (kPa)", xscale="symlog",
-               ylim=(8, 300), title=f"{law}: the peak stress a capsize puts on each bond (unbreakable)")  # fmt: skip
+               ylim=(8, 300), title=f"{law}: each bond's peak stress (unbreakable shelf)")  # fmt: skip
         ax.legend(fontsize=7)
         ax = axes[1, col]
         for name, *_ in VARIANTS:
+            if (law, name) not in found:
+                continue
             mix = np.mean([cdf(grid, g["p"], m) for g in found[(law, name)]], axis=0)
             ax.plot(grid * KPA, mix, lw=1, label=f"theory, {name}")
         got = np.sort([r["S_c"] for r in seed_rows if r["law"] == law and r["variant"] == "scene"])

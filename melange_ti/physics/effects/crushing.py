@@ -15,8 +15,9 @@ up to one disc radius). The normal work ``-J_n (v_n + J_n K / 2)`` of each scale
 to ``collision_dissipated``, the crushing's (with friction, its tangential part's to
 ``friction_dissipated``). An impact slow enough to be stopped within one step
 by ``F_c`` takes the rigid law's impulse to the bit; only the correction differs (it keeps an
-overlap up to a disc radius), so a run whose correction pushes nothing is the rigid law's. Derived and validated in docs/model.md ("Crushing")
-and docs/validation.md ("Impacts into elastic ice").
+overlap up to a disc radius), so a run whose correction pushes nothing is the rigid law's.
+Derived and validated in docs/model.md ("Crushing") and docs/validation.md ("Impacts into
+elastic ice").
 """
 
 from ..data.columns import Column
