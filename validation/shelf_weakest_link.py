@@ -2,7 +2,7 @@
 capsize puts on each bond of an intact shelf, and the distribution of the strength below which
 a bond breaks, against Weibull weakest-link theory, over many seeds.
 
-    python validation/shelf_weakest_link.py --out validation/results/shelf_weakest_link   # ~50 min on one core
+    python validation/shelf_weakest_link.py --out validation/results/shelf_weakest_link   # ~55 min on one core
 
 ``runs/shelf_breakup.toml`` (the paper's icebergs as one bonded shelf, the front one free and
 tilted) run once with unbreakable bonds (``tensile_strength = shear_strength = 1e6``; the
@@ -29,7 +29,8 @@ under 90% of the bonds intact: ``shelf_breakup.py``'s measure). Writes
 ``peaks.csv.gz`` (every bond of every variant and seed), ``laws.csv`` (each variant's theory), ``seeds.csv``
 (per seed: ``S_c`` from the draws, the model's check), ``weakest_link.png`` and the printed lines
 in ``weakest_link.log``, the last the unbreakable runs' energy budgets (``--budgets``: that line
-alone, from the run files left in ``runs/shelf_weakest_link/``).
+alone, from the run files of ``--duration`` left in ``runs/shelf_weakest_link/``). ``--plot``
+draws the figure again from the tables in ``--out``.
 """
 
 from __future__ import annotations
@@ -308,12 +309,15 @@ def write(path: Path, rows: list[dict]) -> None:
 
 
 def merged(path: Path, rows: list[dict], chosen: set) -> list[dict]:
-    """The rows of the table at ``path`` (for ``--variants``): those of the variants not
-    ``chosen`` as they were, and ``rows`` for the chosen, in the order of LAWS and VARIANTS."""
+    """The rows of the table at ``path`` (for ``--variants``): ``rows`` for each (law,
+    variant) they hold, the table's own for every other (so a run stopped half-way loses
+    nothing), in the order of LAWS and VARIANTS. ``chosen``: the variants named."""
+    done = {(r["law"], r["variant"]) for r in rows}
+    assert {v for _, v in done} <= chosen
     kept = []
     if path.exists():
         with (gzip.open if path.suffix == ".gz" else open)(path, "rt") as fh:
-            kept = [r for r in csv.DictReader(fh) if r["variant"] not in chosen]
+            kept = [r for r in csv.DictReader(fh) if (r["law"], r["variant"]) not in done]
     order = {(law, v[0]): k for k, (law, v) in enumerate((law, v) for law in LAWS for v in VARIANTS)}
     return sorted(kept + rows, key=lambda r: order[(r["law"], r["variant"])])  # stable: the seeds' order kept
 
@@ -321,7 +325,8 @@ def merged(path: Path, rows: list[dict], chosen: set) -> list[dict]:
 def tables(out: Path) -> tuple[dict, list[dict]]:
     """The peaks and the seeds' rows as ``main`` holds them, read back from ``peaks.csv.gz``
     and ``seeds.csv`` (for ``--plot``)."""
-    peaks_rows = list(csv.DictReader(gzip.open(out / "peaks.csv.gz", "rt")))
+    with gzip.open(out / "peaks.csv.gz", "rt") as fh:
+        peaks_rows = list(csv.DictReader(fh))
     found = {}
     for law in LAWS:
         for name, *_ in VARIANTS:
@@ -331,7 +336,9 @@ def tables(out: Path) -> tuple[dict, list[dict]]:
                 p = np.maximum([float(r["peak_stress"]) for r in mine], [float(r["peak_shear"]) for r in mine])
                 found.setdefault((law, name), []).append({"p": p, "depth": np.array([float(r["depth"]) for r in mine])})
     seed_rows = []
-    for r in csv.DictReader(open(out / "seeds.csv")):
+    with open(out / "seeds.csv") as fh:
+        seed_file = list(csv.DictReader(fh))
+    for r in seed_file:
         row = {**r, "S_c": float(r["S_c"]), "S_c_kPa": float(r["S_c_kPa"]), "seed": int(r["seed"]), "bond": int(r["bond"])}
         if r.get("broken_below"):
             row.update(broken_above=int(r["broken_above"]), broken_below=int(r["broken_below"]))
@@ -366,12 +373,14 @@ def plot(out: Path, found: dict, seed_rows: list[dict], grid: np.ndarray, m: flo
             mix = np.mean([cdf(grid, g["p"], m) for g in found[(law, name)]], axis=0)
             ax.plot(grid * KPA, mix, lw=1, label=f"theory, {name}")
         got = np.sort([r["S_c"] for r in seed_rows if r["law"] == law and r["variant"] == "scene"])
-        frac = np.arange(1, got.size + 1) / got.size
-        ax.step(got * KPA, frac, "k", where="post", lw=1.5, label=f"the scene's {got.size} seeds")
+        if got.size:
+            frac = np.arange(1, got.size + 1) / got.size
+            ax.step(got * KPA, frac, "k", where="post", lw=1.5, label=f"the scene's {got.size} seeds")
         checked = [r for r in seed_rows if r["law"] == law and r["variant"] == "scene" and "broken_below" in r]
         ok = [r for r in checked if r["broken_above"] == 0 and r["first_below"] == str(r["bond"])]
-        label = f"the model's check ({len(ok)} of {len(checked)})"
-        ax.plot([r["S_c_kPa"] for r in ok], [0.03] * len(ok), "r|", ms=12, label=label)
+        if checked:
+            label = f"the model's check ({len(ok)} of {len(checked)})"
+            ax.plot([r["S_c_kPa"] for r in ok], [0.03] * len(ok), "r|", ms=12, label=label)
         ax.set(xlabel="strength S (kPa)", ylabel="P(S_c < S): no bond breaks", xscale="log", xlim=(30, 600),
                title=f"{law}: the strength below which a bond breaks")  # fmt: skip
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
