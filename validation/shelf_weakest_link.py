@@ -68,6 +68,7 @@ VARIANTS = (
     ("N = 400, 112 discs", 400, None, 112),
 )
 LAWS = ("rigid", "crushing")
+DURATION = 1000.0  # --duration's default: its runs' file names carry no duration
 QUANTILES = (0.05, 0.5, 0.95)
 
 
@@ -95,6 +96,11 @@ def overrides(law: str, count: int, dt, discs, duration: float, seed: int, stren
     return over
 
 
+def lasting(duration: float) -> str:
+    """The end of a run file's name that says its duration (none for DURATION)."""
+    return "" if duration == DURATION else f"_t{duration:g}".replace(".", "p")
+
+
 def run(over: dict, name: str) -> Path:
     RUNS.mkdir(parents=True, exist_ok=True)
     out = RUNS / f"{name}.h5"
@@ -105,7 +111,7 @@ def run(over: dict, name: str) -> Path:
 def peaks(law: str, count: int, dt, discs, duration: float, seed: int) -> dict:
     """The unbreakable shelf's bonds: peak ``p``, where (``depth``: the bond's distance from the
     shelf's seaward face at t = 0, in widths; the wall's bond at the shelf's length), and kind."""
-    tag = f"{law}_{count}_{dt or 'dt'}_{discs or 'discs'}_{seed}{'' if duration == 1000 else f'_t{duration:g}'}".replace(".", "p")
+    tag = f"{law}_{count}_{dt or 'dt'}_{discs or 'discs'}_{seed}".replace(".", "p") + lasting(duration)
     out = run(overrides(law, count, dt, discs, duration, seed, BIG), tag)
     with h5py.File(out, "r") as f:
         g = f["bonds"]
@@ -165,11 +171,13 @@ def broke(out: Path) -> tuple[int, bool]:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=ROOT / "validation" / "results" / "shelf_weakest_link")
-    p.add_argument("--duration", type=float, default=1000.0)
+    p.add_argument("--duration", type=float, default=DURATION)
     p.add_argument("--seeds", type=int, default=16, help="seeds: each an unbreakable run of every variant")
     p.add_argument("--check", type=int, default=16, help="seeds the model runs again either side of S_c (the scene)")
     p.add_argument("--check-long", type=int, default=4, help="seeds the model runs again either side of S_c (N = 400)")
-    p.add_argument("--budgets", action="store_true", help="only the budgets of the runs left in runs/shelf_weakest_link/")
+    p.add_argument(
+        "--budgets", action="store_true", help="only the budgets of the runs of --duration left in runs/shelf_weakest_link/"
+    )
     p.add_argument("--plot", action="store_true", help="only the figure, drawn again from the tables in --out")
     p.add_argument("--variants", nargs="+", choices=[v[0] for v in VARIANTS], metavar="NAME",
                    help="run only these variants, their rows replacing theirs in the tables in --out")  # fmt: skip
@@ -274,11 +282,8 @@ def budgets(fh, duration: float) -> None:
 
     worst = []
     for path in sorted(RUNS.glob("*.h5")):
-        if (
-            path.name.startswith("check_")
-            or (duration == 1000) == ("_t" in path.name)
-            or (duration != 1000 and not path.stem.endswith(f"_t{duration:g}".replace(".", "p")))
-        ):
+        tail = lasting(duration)
+        if path.name.startswith("check_") or ("_t" in path.stem) != bool(tail) or not path.stem.endswith(tail):
             continue
         with h5py.File(path, "r") as f:
             budget = stats.energy_budget({k: f["diagnostics"][k][:] for k in f["diagnostics"]})
