@@ -127,6 +127,17 @@ def software_note(arch: str) -> str:
     return f"{_software[arch]} is a software device (a CPU posing as a GPU), slower than --arch cpu"
 
 
+# Taichi's offline cache of compiled kernels holds at most this many bytes; past it, Taichi
+# drops the least recently used quarter when a process ends. Taichi's own cap (100 MiB) is
+# smaller than the kernels of the effect sets one user's scenes and the test suite compile
+# (each effect set compiles its own): past it, kernels compiled minutes ago were dropped and
+# compiled again (measured: the bonded row in waves of tests/test_resume_every_scene.py builds
+# in 381 s compiling and in 9 s from the cache, and after the whole test suite on a 100 MiB
+# cache it was compiling again). 1 GiB of disk holds them all. The environment variable
+# TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES (bytes) overrides it.
+OFFLINE_CACHE_BYTES = 1 << 30
+
+
 def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", debug: bool = False) -> str:
     """Initialise Taichi for ``arch`` (one of :data:`ARCHS`: ``"cpu"``; ``"gpu"``, Taichi's
     choice of device, CUDA first, then Vulkan, ...; or ``"cuda"``, ``"vulkan"``) and return
@@ -149,6 +160,8 @@ def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", 
     kwargs = dict(default_fp=fp, default_ip=ti.i32, debug=debug, log_level=ti.WARN, fast_math=False)
     if threads is not None:
         kwargs["cpu_max_num_threads"] = int(threads)
+    if "TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES" not in os.environ:  # the user's own cap stands
+        kwargs["offline_cache_max_size_of_files"] = OFFLINE_CACHE_BYTES
     if arch not in ARCHS:
         raise ArchError(f"--arch {arch!r}: must be one of {', '.join(ARCHS)}")
     target = ti.cpu if arch == "cpu" else getattr(ti, probe(arch, precision))
