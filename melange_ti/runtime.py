@@ -133,9 +133,19 @@ def software_note(arch: str) -> str:
 # (each effect set compiles its own): past it, kernels compiled minutes ago were dropped and
 # compiled again (measured: the bonded row in waves of tests/test_resume_every_scene.py builds
 # in 381 s compiling and in 9 s from the cache, and after the whole test suite on a 100 MiB
-# cache it was compiling again). 1 GiB of disk holds them all. The environment variable
+# cache it was compiling again). The cap is 1 GiB of disk instead. The environment variable
 # TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES (bytes) overrides it.
 OFFLINE_CACHE_BYTES = 1 << 30
+
+# Taichi's own store-to-load forwarding and dead-store passes over a kernel's control-flow
+# graph (``cfg_optimization``) take time that grows faster than the kernel: on the serial
+# form's one kernel of a whole step (bonds and waves) they were 3.1 of the 3.4 minutes its
+# compiling took. Off, LLVM's own passes (which run either way) do that work, the kernel
+# compiles in a sixth of the time (206 -> 34 s), and every result is the same bits (the
+# regression hashes). The step may be a few per cent slower (side by side: 0.97-1.13x per
+# pair, docs/performance.md): for long runs of kernels already cached,
+# MELANGE_TI_CFG_OPTIMIZATION=1 turns Taichi's passes back on (the same bits either way).
+CFG_OPTIMIZATION = os.environ.get("MELANGE_TI_CFG_OPTIMIZATION", "0") == "1"
 
 
 def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", debug: bool = False) -> str:
@@ -158,6 +168,7 @@ def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", 
     fp = ti.f32 if precision == "f32" else ti.f64
     # fast_math off: otherwise the serial and parallel kernels may round differently
     kwargs = dict(default_fp=fp, default_ip=ti.i32, debug=debug, log_level=ti.WARN, fast_math=False)
+    kwargs["cfg_optimization"] = CFG_OPTIMIZATION
     if threads is not None:
         kwargs["cpu_max_num_threads"] = int(threads)
     if "TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES" not in os.environ:  # the user's own cap stands
