@@ -86,8 +86,11 @@ def probe(arch: str, precision: str = "f64") -> str:
 
     flag = f"--arch {arch}"
     try:
+        # the probe's Taichi keeps the kernel cache's cap too (Taichi trims the cache to its cap
+        # when a process ends: at its own 100 MiB, the probe dropped a quarter of the kernels)
+        env = {"TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES": str(OFFLINE_CACHE_BYTES), **os.environ}
         p = subprocess.run(
-            [sys.executable, "-m", "melange_ti.probe", arch, precision], capture_output=True, text=True, timeout=600
+            [sys.executable, "-m", "melange_ti.probe", arch, precision], capture_output=True, text=True, timeout=600, env=env
         )
     except (OSError, subprocess.TimeoutExpired) as exc:
         raise ArchError(f"{flag}: could not probe for a device ({exc.__class__.__name__}); use --arch cpu") from None
