@@ -159,8 +159,8 @@ def child_vulkan(name: str, path: Path, steps: int) -> None:
 
     runtime.init("vulkan", precision="f64")
     from melange_ti.model import Model
-    from melange_ti.physics.data.schema import BodyInt
     from melange_ti.physics import stages
+    from melange_ti.physics.data.schema import BodyInt
 
     sequential = {
         f"{st.name}.{part.func.__name__}": part.sequential

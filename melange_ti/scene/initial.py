@@ -186,8 +186,8 @@ def generate_shelf(shelf, physics, seed: int) -> Icebergs:
     Random numbers are drawn on the host from ``numpy.random.default_rng(seed)``: first the
     tilts, then (only when ``thickness_std > 0``) the thicknesses, then (only when
     ``width_std > 0``) the widths, then (only when ``cut_tilt_std > 0``) the cuts' tilts
-    about ``cut_tilt`` (:func:`_cut_shelf`, which also cuts at ``cut_tilt`` alone), so a spread never changes what was drawn before it. With
-    spread widths each iceberg keeps ``gap`` to its neighbours (none within an intact
+    about ``cut_tilt`` (:func:`_cut_shelf`, which also cuts at ``cut_tilt`` alone), so a spread
+    never changes what was drawn before it. With spread widths each iceberg keeps ``gap`` to its neighbours (none within an intact
     shelf), as equal ones do.
     """
     rng = np.random.default_rng(seed)

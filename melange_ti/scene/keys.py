@@ -218,7 +218,8 @@ SHELF = (
         0.0,
         "rad",
         "standard deviation of a normal spread of the cut faces' tilts about `cut_tilt` (0 with `cut_tilt = 0`: "
-        "vertical cuts, rectangles), drawn after the widths; neighbours share each cut, `gap` apart horizontally, the shelf's two ends "
+        "vertical cuts, rectangles), drawn after the widths; neighbours share each cut, `gap` apart horizontally, "
+        "the shelf's two ends "
         "stay vertical: each iceberg a quadrilateral (docs/model.md, Outlines)",
     ),
     Key(

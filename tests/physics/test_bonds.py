@@ -3,8 +3,9 @@ strength, the budget with fracture, the pair's contact held by the bond, the for
 the scene's refusals, checkpoints, ``[start]`` and the fragments.
 
 Analytic references: two free blocks bonded face to face are a spring of stiffness
-``k_n = E' t / L`` (plane strain, ``E' = E / (1 - nu^2)``) between masses ``m`` (reduced ``m / 2``): their separation oscillates at
-``omega = sqrt(2 k_n / m)``, or, for the kick-drift step, ``(2 / dt) asin(omega dt / 2)``.
+``k_n = E' t / L`` (plane strain, ``E' = E / (1 - nu^2)``) between masses ``m`` (reduced
+``m / 2``): their separation oscillates at ``omega = sqrt(2 k_n / m)``, or, for the
+kick-drift step, ``(2 / dt) asin(omega dt / 2)``.
 Every bond force is equal and opposite and derives from a potential invariant under rigid
 motions, so momentum and angular momentum are constant to round-off whatever the bond does.
 """
@@ -75,7 +76,8 @@ def budget(d) -> np.ndarray:
 
 def test_a_bonded_pair_rings_at_the_springs_frequency(tmp_path):
     """Separation of a pair pulled apart: the kick-drift step's frequency of the spring
-    ``k_n = E' t / L`` (plane strain, ``E' = E / (1 - nu^2)``) between the two masses, within 0.2%, mid-run over several periods; the
+    ``k_n = E' t / L`` (plane strain, ``E' = E / (1 - nu^2)``) between the two masses, within
+    0.2%, mid-run over several periods; the
     budget (the bond's energy as the step keeps it) constant to 1e-9 of the energy."""
     dt = 0.001
     d = run_text(tmp_path, pair_text(dt=dt, duration=0.6))

@@ -115,7 +115,7 @@ def test_the_wave_kick_on_polygons_is_minus_the_gradient_of_the_clipped_areas(sh
         corners = np.array([[0.5, -0.7], [0.5, 0.7], [-0.5, 0.7], [-0.5, -0.7]]) if poly is None else outline(poly, R)["corners"]
         pose = np.array([s0["x"][i], s0["z"][i], s0["theta"][i]])
 
-        def potential(p):
+        def potential(p, corners=corners):
             return float(eta_q @ _strip_areas(corners, p, x0, ds, len(eta_q)))
 
         h = 1e-6

@@ -97,7 +97,8 @@ TABLE = Table(
             "GPHI",
             "cache",
             "w / sqrt(w/g)",
-            "G phi, the surface's vertical velocity without sources (set when a wave step closes: of phi before the next opening's kick)",
+            "G phi, the surface's vertical velocity without sources "
+            "(set when a wave step closes: of phi before the next opening's kick)",
         ),
         Column(
             "SRC",

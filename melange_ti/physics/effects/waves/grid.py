@@ -341,10 +341,10 @@ def pressure_surface(fx: ti.template(), a: ti.template()):
 def sponge(fx: ti.template(), a: ti.template()):
     """The absorbing layer, ``eta <- eta / (1 + Dt sigma)``, each cell on its own (parallel:
     no loop over the grid on one thread). The energy it removes per cell (:func:`_absorb`)
-    is rounded to a multiple of ``SPONGE_Q`` and the cells' shares added with atomics into ``red[0, 0]`` (f64 in any form; free after the correction): such sums are
-    exact, so the step's total does not depend on the order of the additions (the same bits
-    in every form, on any thread count and on a device); then one addition to
-    ``wave_absorbed``. When a wave step closes, with ``Dt``."""
+    is rounded to a multiple of ``SPONGE_Q`` and the cells' shares added with atomics into
+    ``red[0, 0]`` (f64 in any form; free after the correction): such sums are exact, so the
+    step's total does not depend on the order of the additions (the same bits in every form,
+    on any thread count and on a device); then one addition to ``wave_absorbed``. When a wave step closes, with ``Dt``."""
     for _ in range(1):
         a.red[0, 0] = ti.cast(0.0, ti.f64)
     for j in range(cells(a) * closes(a)):
