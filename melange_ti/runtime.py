@@ -88,7 +88,7 @@ def probe(arch: str, precision: str = "f64") -> str:
     try:
         # the probe's Taichi keeps the kernel cache's cap too (Taichi trims the cache to its cap
         # when a process ends: at its own 100 MiB, the probe dropped a quarter of the kernels)
-        env = {"TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES": str(OFFLINE_CACHE_BYTES), **os.environ}
+        env = {**os.environ, **taichi_defaults()}
         p = subprocess.run(
             [sys.executable, "-m", "melange_ti.probe", arch, precision], capture_output=True, text=True, timeout=600, env=env
         )
@@ -141,14 +141,24 @@ def software_note(arch: str) -> str:
 OFFLINE_CACHE_BYTES = 1 << 30
 
 # Taichi's own store-to-load forwarding and dead-store passes over a kernel's control-flow
-# graph (``cfg_optimization``) take time that grows faster than the kernel: on the serial
-# form's one kernel of a whole step (bonds and waves) they were 3.1 of the 3.4 minutes its
-# compiling took. Off, LLVM's own passes (which run either way) do that work, the kernel
-# compiles in a sixth of the time (206 -> 34 s), and every result is the same bits (the
-# regression hashes). The step may be a few per cent slower (side by side: 0.97-1.13x per
-# pair, docs/performance.md): for long runs of kernels already cached,
-# MELANGE_TI_CFG_OPTIMIZATION=1 turns Taichi's passes back on (the same bits either way).
-CFG_OPTIMIZATION = os.environ.get("MELANGE_TI_CFG_OPTIMIZATION", "0") == "1"
+# graph (``cfg_optimization``) take time that grows faster than the kernel: the serial form
+# puts a whole step in one kernel, and for bonds in waves that one kernel took 191 s to
+# compile, 3.1 minutes of it in these passes. Off, LLVM's own passes (which run either way) do
+# that work: the scene's 5 kernels compile in 34 s instead of 206 s, the paper scene's in
+# 11 s instead of 90 s, and every result is the same bits (the regression hashes). The step
+# may be about 5% slower (side by side: 0.93-1.13x per pair, docs/performance.md): for long
+# runs of kernels already cached, Taichi's own TI_CFG_OPTIMIZATION=1 turns the passes back on
+# (the same bits either way).
+CFG_OPTIMIZATION = False
+
+
+def taichi_defaults() -> dict[str, str]:
+    """Our defaults for Taichi's settings, as the environment variables Taichi reads
+    (``TI_<KEY>``), less those the user has set: the kernel cache's cap and the control-flow
+    passes. :func:`init` passes them to ``ti.init``; the device probe's process gets them in
+    its environment, so its Taichi trims the cache to the same cap when it ends."""
+    ours = {"TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES": str(OFFLINE_CACHE_BYTES), "TI_CFG_OPTIMIZATION": str(int(CFG_OPTIMIZATION))}
+    return {k: v for k, v in ours.items() if not os.environ.get(k)}
 
 
 def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", debug: bool = False) -> str:
@@ -171,11 +181,13 @@ def init(arch: str = "cpu", threads: int | None = None, precision: str = "f64", 
     fp = ti.f32 if precision == "f32" else ti.f64
     # fast_math off: otherwise the serial and parallel kernels may round differently
     kwargs = dict(default_fp=fp, default_ip=ti.i32, debug=debug, log_level=ti.WARN, fast_math=False)
-    kwargs["cfg_optimization"] = CFG_OPTIMIZATION
     if threads is not None:
         kwargs["cpu_max_num_threads"] = int(threads)
-    if "TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES" not in os.environ:  # the user's own cap stands
+    mine = taichi_defaults()  # the user's own TI_ settings stand (Taichi reads them itself)
+    if "TI_OFFLINE_CACHE_MAX_SIZE_OF_FILES" in mine:
         kwargs["offline_cache_max_size_of_files"] = OFFLINE_CACHE_BYTES
+    if "TI_CFG_OPTIMIZATION" in mine:
+        kwargs["cfg_optimization"] = CFG_OPTIMIZATION
     if arch not in ARCHS:
         raise ArchError(f"--arch {arch!r}: must be one of {', '.join(ARCHS)}")
     target = ti.cpu if arch == "cpu" else getattr(ti, probe(arch, precision))

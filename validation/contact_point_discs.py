@@ -1,6 +1,6 @@
 """Where a corner's contact acts: the discs' merge against the outlines (issue 50, item 5).
 
-    python validation/contact_point_discs.py --out validation/results/contact_point_discs   # ~5 min on one core
+    python validation/contact_point_discs.py --out validation/results/contact_point_discs   # ~2 min on one core
 
 The leaning front of validation/impact_stress.py (the N = 50 shelf cut at 20 degrees, seed 1,
 bonded to the wall, unbreakable bonds, crushing at its defaults, ``dt`` = 0.00125) is run at
